@@ -1,0 +1,19 @@
+# The README's two commands. Each sets up .venv (once, re-done when pyproject.toml changes).
+PY := .venv/bin/python
+FLAGSHIP ?= cmg_open_loop
+
+.PHONY: run test bench
+run: .venv/.installed
+	$(PY) -m testbed run $(FLAGSHIP)
+
+test: .venv/.installed
+	$(PY) -m pytest
+
+bench: .venv/.installed
+	$(PY) bench/bench_pipeline.py
+	$(PY) bench/bench_minimax.py
+
+.venv/.installed: pyproject.toml
+	python3 -m venv .venv
+	$(PY) -m pip install --quiet --disable-pip-version-check -e '.[test]'
+	touch $@

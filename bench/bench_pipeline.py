@@ -1,0 +1,50 @@
+"""Pipeline overhead: cmg_open_loop through the whole pipeline with logging vs bare MuJoCo.
+
+Both run the same compiled model for the same simulated time in this process; the analytic
+reference is switched off (it is an oracle, not part of a user's run). Prints
+`pipeline_over_bare` (goal <= 1.5) and simulated seconds per wall second.
+
+    .venv/bin/python bench/bench_pipeline.py [SCENARIO] [--duration S]
+"""
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+import mujoco
+
+from testbed.runner import prepare, run_scenario
+from testbed.scenario import load_scenario
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("scenario", nargs="?", default="cmg_open_loop")
+    parser.add_argument("--duration", type=float, default=None, help="simulated seconds (default: the scenario's)")
+    args = parser.parse_args()
+    overrides = ["reference=", "checks={}"]
+    if args.duration:
+        overrides.append(f"sim.duration_s={args.duration}")
+    scenario = load_scenario(args.scenario, overrides)
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        result = run_scenario(scenario, Path(tmp) / "bench.rrd")
+        pipeline_s = time.perf_counter() - t0
+
+    plant, _, _ = prepare(scenario)
+    steps = round(scenario.sim.duration_s / scenario.sim.dt_s)
+    t0 = time.perf_counter()
+    mujoco.mj_step(plant.model, plant.data, nstep=steps)
+    bare_s = time.perf_counter() - t0
+
+    print(f"scenario            {scenario.name} ({result.status})")
+    print(f"simulated_s         {scenario.sim.duration_s:g}  ({steps} physics steps, dt = {scenario.sim.dt_s:g} s)")
+    print(f"pipeline_wall_s     {pipeline_s:.3f}   (run + trace written)")
+    print(f"bare_mj_step_wall_s {bare_s:.3f}")
+    print(f"pipeline_over_bare  {pipeline_s / bare_s:.3f}   (goal <= 1.5)")
+    print(f"sim_s_per_wall_s    {scenario.sim.duration_s / pipeline_s:.1f}")
+
+
+if __name__ == "__main__":
+    main()

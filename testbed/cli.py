@@ -1,0 +1,176 @@
+"""Command line: `testbed run | check | list | inspect` (see README).
+
+Exit status: 0 all checks passed, 1 a check failed or the run diverged, 2 bad input (one
+line on stderr naming the field and the reason, no traceback, no output file).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from testbed.errors import InputError
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # argparse's own usage errors are bad input too
+        raise InputError("usage", message)
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="testbed", description="Gyrodyne (CMG) attitude-control testbed on MuJoCo.")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    run = sub.add_parser("run", help="run one scenario headless and write its .rrd")
+    run.add_argument("scenario", help="scenario file or name in scenarios/")
+    run.add_argument("--out", help="output .rrd (default runs/<scenario>.rrd)")
+    run.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE",
+                     help="override a scenario field (validated like the file)")
+    run.add_argument("--json", action="store_true", help="print one JSON object")
+    check = sub.add_parser("check", help="run scenarios and print a table of their checks")
+    check.add_argument("scenarios", nargs="*", help="files or names (default: all in scenarios/)")
+    check.add_argument("--out-dir", default="runs", help="where the .rrd files go")
+    check.add_argument("--json", action="store_true")
+    sub.add_parser("list", help="list the scenarios with a one-line description")
+    inspect = sub.add_parser("inspect", help="read back a run's entities, time span, metrics and checks")
+    inspect.add_argument("rrd")
+    inspect.add_argument("--json", action="store_true")
+    return parser
+
+
+class _Progress:
+    """A one-line progress bar on a terminal, shown only once a run takes more than 2 s."""
+
+    def __init__(self, label: str):
+        self.label, self.start, self.shown = label, time.perf_counter(), False
+
+    def __call__(self, fraction: float) -> None:
+        elapsed = time.perf_counter() - self.start
+        if elapsed < 2.0:
+            return
+        self.shown = True
+        bar = "#" * int(30 * fraction)
+        eta = elapsed * (1 - fraction) / max(fraction, 1e-9)
+        sys.stderr.write(f"\r{self.label} [{bar:<30}] {100 * fraction:5.1f}%  eta {eta:5.0f} s")
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        if self.shown:
+            sys.stderr.write("\r" + " " * 70 + "\r")
+
+
+def _run_one(name: str, overrides, out: str | None, show_progress: bool):
+    from testbed.runner import run_scenario
+    from testbed.scenario import load_scenario
+
+    scenario = load_scenario(name, overrides)
+    out_path = Path(out) if out else Path("runs") / f"{scenario.name}.rrd"
+    progress = _Progress(scenario.name) if show_progress else None
+    try:
+        return run_scenario(scenario, out_path, progress)
+    finally:
+        if progress:
+            progress.close()
+
+
+def _print_summary(result) -> None:
+    print(f"scenario {result.scenario}: {result.status}, {result.sim_s:g} s simulated in {result.wall_s:.2f} s")
+    if result.error:
+        print(f"error: {result.error}")
+    for name, value in result.metrics.items():
+        print(f"  {name:32s} {value:.6g}")
+    _print_checks([(result.scenario, c) for c in result.checks])
+    print(f"trace: {result.rrd}")
+
+
+def _print_checks(rows) -> None:
+    if not rows:
+        return
+    print(f"{'scenario':28s} {'check':32s} {'value':>12s}  {'limit':16s} result")
+    for scenario, c in rows:
+        print(f"{scenario:28s} {c['name']:32s} {c['value']:12.4g}  {c['limit']:16s} {'pass' if c['passed'] else 'FAIL'}")
+
+
+def _cmd_run(args) -> int:
+    tty = sys.stderr.isatty() and not args.json
+    result = _run_one(args.scenario, args.set, args.out, tty)
+    if args.json:
+        print(json.dumps(result.as_json()))
+    else:
+        _print_summary(result)
+    return EXIT_OK if result.passed else EXIT_FAILED
+
+
+def _cmd_check(args) -> int:
+    from testbed.scenario import SCENARIO_DIR
+
+    names = args.scenarios or sorted(str(p) for p in SCENARIO_DIR.glob("*.yaml"))
+    results = []
+    for name in names:
+        stem = Path(name).stem
+        results.append(_run_one(name, [], str(Path(args.out_dir) / f"{stem}.rrd"),
+                                sys.stderr.isatty() and not args.json))
+    if args.json:
+        print(json.dumps([r.as_json() for r in results]))
+    else:
+        _print_checks([(r.scenario, c) for r in results for c in r.checks])
+        for r in results:
+            if r.error:
+                print(f"{r.scenario}: {r.error}")
+    return EXIT_OK if all(r.passed for r in results) else EXIT_FAILED
+
+
+def _cmd_list(args) -> int:
+    from testbed.scenario import SCENARIO_DIR, read_yaml
+
+    for path in sorted(SCENARIO_DIR.glob("*.yaml")):
+        data = read_yaml(path)
+        description = str(data.get("description", "")).strip().splitlines()
+        print(f"{path.stem:28s} {description[0] if description else ''}")
+    return EXIT_OK
+
+
+def _cmd_inspect(args) -> int:
+    from testbed.trace import read_rrd
+
+    path = Path(args.rrd)
+    if not path.is_file():
+        raise InputError("rrd", f"no such file: {path}")
+    try:
+        info = read_rrd(path)
+    except Exception as exc:  # a foreign or damaged file is bad input, not a crash
+        raise InputError("rrd", f"cannot read {path}: {exc}") from None
+    if args.json:
+        print(json.dumps(info))
+        return EXIT_OK
+    result = info["result"]
+    print(f"{path}: scenario {result['scenario']}, status {result['status']}, "
+          f"sim_time {info['time_span_s'][0]:g} .. {info['time_span_s'][1]:g} s")
+    print("entities:")
+    for entity, rows in sorted(info["entities"].items()):
+        print(f"  {entity:44s} {rows} rows")
+    print("metrics:")
+    for name, value in result["metrics"].items():
+        print(f"  {name:32s} {value:.6g}")
+    _print_checks([(result["scenario"], c) for c in result["checks"]])
+    return EXIT_OK
+
+
+def main(argv: list[str] | None = None) -> int:
+    try:
+        args = _parser().parse_args(argv)
+        return {"run": _cmd_run, "check": _cmd_check, "list": _cmd_list, "inspect": _cmd_inspect}[args.command](args)
+    except InputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,105 @@
+"""The control pipeline: sensor -> estimator -> control law -> allocator, chosen by name.
+
+Each slot holds one stage, registered with `@stage(slot, name, Params)`. Stages see only
+what their slot is given, so nothing downstream of the sensor can read the true state:
+
+- sensor     `measure(t, plant) -> dict`                 (the only stage that sees truth)
+- estimator  `estimate(t, measurement, command) -> dict`  (`command`: last allocator output)
+- law        `torque(t, estimate) -> dict`                (key `torque`: wanted body torque)
+- allocator  `allocate(t, demand, estimate, actuators) -> dict`
+             (key `gimbal_rates` or `body_torque`: what the plant's actuators receive)
+
+Every key a stage returns is recorded under `<slot>/<key>`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from testbed import schema
+from testbed.errors import InputError
+
+SLOTS = ("sensor", "estimator", "law", "allocator")
+_REGISTRY: dict[str, dict[str, tuple[type, Callable]]] = {slot: {} for slot in SLOTS}
+
+
+@dataclass(frozen=True)
+class StageContext:
+    """What a stage may know at construction: design data, never the running truth."""
+
+    dt: float                   # physics step [s]
+    control_period: float       # pipeline sample period [s]
+    inertia: np.ndarray         # spacecraft locked inertia about its CoM, body axes [kg m^2]
+    system: Any                 # the plant's static description (e.g. CMG cluster geometry)
+    scenario: Any               # the whole validated scenario, for cross-stage design data
+
+
+def stage(slot: str, name: str, params_cls: type | None = None):
+    """Register a stage class under `name` in `slot`; `params_cls` is its schema dataclass."""
+
+    def register(cls):
+        _REGISTRY[slot][name] = (params_cls or _NoParams, cls)
+        cls.slot = slot
+        cls.type_name = name
+        return cls
+
+    return register
+
+
+@dataclass
+class _NoParams:
+    pass
+
+
+def names(slot: str) -> list[str]:
+    return sorted(_REGISTRY[slot])
+
+
+def load_params(slot: str, config: dict | None, path: str):
+    """Validate a slot's `{type: NAME, ...params}` mapping; returns (name, params)."""
+    config = dict(config or {"type": "none"})
+    name = config.pop("type", None)
+    if name is None:
+        raise InputError(f"{path}.type", f"is required (one of {', '.join(names(slot))})")
+    if name not in _REGISTRY[slot]:
+        raise InputError(f"{path}.type", f"unknown {slot} {name!r} (one of {', '.join(names(slot))})")
+    params_cls, _ = _REGISTRY[slot][name]
+    return name, schema.load(params_cls, config, path)
+
+
+def build(slot: str, name: str, params, ctx: StageContext):
+    _, cls = _REGISTRY[slot][name]
+    return cls(params, ctx)
+
+
+class Pipeline:
+    """One control tick: run the four stages in order and hand the command to the plant."""
+
+    def __init__(self, sensor, estimator, law, allocator):
+        self.sensor, self.estimator, self.law, self.allocator = sensor, estimator, law, allocator
+        self.command: dict[str, np.ndarray] = {}
+        # open-loop allocators ignore the actuator read-outs: skip reading them
+        self._needs_actuators = getattr(allocator, "needs_actuators", True)
+
+    @classmethod
+    def from_config(cls, configs: dict, ctx: StageContext) -> "Pipeline":
+        stages = [build(slot, *configs[slot], ctx) for slot in SLOTS]
+        return cls(*stages)
+
+    def tick(self, t: float, plant) -> dict[str, dict[str, np.ndarray]]:
+        measurement = self.sensor.measure(t, plant)
+        estimate = self.estimator.estimate(t, measurement, self.command)
+        demand = self.law.torque(t, estimate)
+        actuators = plant.actuator_state() if self._needs_actuators else {}
+        self.command = self.allocator.allocate(t, demand, estimate, actuators)
+        plant.apply(self.command)
+        return {"sensor": measurement, "estimator": estimate, "law": demand, "allocator": self.command}
+
+
+def params_dict(params) -> dict:
+    """A stage's parameters as a plain mapping (for the run summary)."""
+    return dataclasses.asdict(params) if dataclasses.is_dataclass(params) else {}

@@ -1,0 +1,116 @@
+"""The MuJoCo truth as the runner sees it: step, read true signals, apply commands.
+
+A `Plant` wraps a domain object (testbed.domains: the Python that knows a model's joints by
+name) and its `MjData`. Only the sensor stage and the trace read `truth()`; controllers get
+`actuator_state()` (what encoders and tachometers on the actuators report) and their own
+measurements.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+
+class SimulationDiverged(RuntimeError):
+    """MuJoCo hit a bad acceleration or a non-finite state; carries the time it happened."""
+
+    def __init__(self, time: float, reason: str):
+        self.time = time
+        super().__init__(f"simulation diverged at t = {time:.6g} s: {reason}")
+
+
+class Plant:
+    """A compiled model with a free-flying body named `bus`, driven by ideal body torques."""
+
+    def __init__(self, domain):
+        self.domain = domain
+        self.model = domain.model
+        self.data = mujoco.MjData(self.model)
+        self._badqacc = mujoco.mjtWarning.mjWARN_BADQACC
+        self.record_energy = False  # the runner turns it on where no actuator does work
+
+    # --- state -------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        return float(self.data.time)
+
+    def omega(self) -> np.ndarray:
+        """Body-frame angular velocity of the bus."""
+        return self.domain.body_omega(self.data)
+
+    def quat(self) -> np.ndarray:
+        """Bus attitude (w, x, y, z), body to world."""
+        return self.domain.body_quat(self.data)
+
+    def angular_momentum_world(self) -> np.ndarray:
+        """Total angular momentum of the whole spacecraft about its CoM, world frame."""
+        return self.domain.total_angular_momentum_world(self.data)
+
+    def locked_inertia(self) -> np.ndarray:
+        """Inertia of the whole spacecraft, joints locked, about its CoM, body axes, now."""
+        mujoco.mj_forward(self.model, self.data)
+        return self.domain.system_inertia(self.data)
+
+    def kinetic_energy(self) -> float:
+        """Total kinetic energy 1/2 qvel' M(q) qvel at the current state [J]."""
+        mujoco.mj_fwdPosition(self.model, self.data)  # M at the current q, not the step's start
+        mujoco.mj_energyVel(self.model, self.data)
+        return float(self.data.energy[1])
+
+    def internal_momentum_body(self) -> np.ndarray:
+        """Momentum of the moving parts relative to the bus, body frame (none for a rigid body)."""
+        return np.zeros(3)
+
+    def momentum_scale(self) -> float:
+        """Scale for relative momentum drift: max(|L|, stored internal momentum)."""
+        return max(float(np.linalg.norm(self.angular_momentum_world())),
+                   float(np.linalg.norm(self.internal_momentum_body())), 1e-300)
+
+    # --- stepping ----------------------------------------------------------------------
+    def step(self, nstep: int) -> None:
+        """Advance `nstep` physics steps; raise SimulationDiverged instead of MuJoCo's reset."""
+        mujoco.mj_step(self.model, self.data, nstep=nstep)
+        if self.data.warning[self._badqacc].number or not np.isfinite(self.data.qvel).all():
+            raise SimulationDiverged(self.time, "bad or non-finite acceleration (mjWARN_BADQACC)")
+
+    # --- what subclasses refine ---------------------------------------------------------
+    def initialise(self, initial) -> None:
+        self.domain.set_free_joint_state(self.data, initial.omega, initial.quat)
+        mujoco.mj_forward(self.model, self.data)
+
+    def truth(self) -> dict[str, np.ndarray]:
+        signals = {"omega": self.omega(), "quat": self.quat(),
+                   "angular_momentum_world": self.angular_momentum_world()}
+        if self.record_energy:
+            signals["kinetic_energy"] = np.array([self.kinetic_energy()])
+        return signals
+
+    def derived_signals(self, recorder) -> dict[str, np.ndarray]:
+        """Signals computed from the recorded truth after the run (vectorised, off the loop)."""
+        return {}
+
+    def actuator_state(self) -> dict[str, np.ndarray]:
+        return {}
+
+    # Command keys this plant's actuators take; other keys of a command are diagnostics.
+    actuators = ("body_torque",)
+
+    def apply(self, command: dict[str, np.ndarray]) -> None:
+        """Body torque on the bus [N m, body axes]; a plant with other actuators extends this."""
+        torque = command.get("body_torque")
+        if torque is not None:
+            self.domain.set_body_torque(self.data, torque)
+
+    def description(self):
+        """Static design data controllers may use (e.g. the CMG cluster geometry)."""
+        return None
+
+    def scene(self) -> dict:
+        """What the 3D view draws: the bus box half sizes (from its first box geom) [m]."""
+        bus = self.domain.bus_body_id
+        boxes = [g for g in range(self.model.ngeom)
+                 if self.model.geom_bodyid[g] == bus and self.model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX]
+        half = self.model.geom_size[boxes[0]] if boxes else [0.5] * 3
+        scale = 1.0 / max(self.momentum_scale(), 1e-9)  # the longest arrow about 1 m
+        return {"bus_half_size": list(map(float, half)), "momentum_scale": scale}

@@ -1,0 +1,45 @@
+"""Quaternion algebra in MuJoCo's convention: q = (w, x, y, z), Hamilton product.
+
+`q` maps body-frame vectors to the world frame: v_world = q ∘ v_body ∘ q~.
+"""
+
+import numpy as np
+
+
+def quat_mul(p, q):
+    """Hamilton product p ∘ q (works on (4,) or broadcast (..., 4) arrays)."""
+    p = np.asarray(p, dtype=float)
+    q = np.asarray(q, dtype=float)
+    pw, pv = p[..., :1], p[..., 1:]
+    qw, qv = q[..., :1], q[..., 1:]
+    w = pw * qw - np.sum(pv * qv, axis=-1, keepdims=True)
+    v = pw * qv + qw * pv + np.cross(pv, qv)
+    return np.concatenate([w, v], axis=-1)
+
+
+def quat_conj(q):
+    """Conjugate q~ (the inverse of a unit quaternion)."""
+    q = np.asarray(q, dtype=float)
+    return np.concatenate([q[..., :1], -q[..., 1:]], axis=-1)
+
+
+def quat_from_axis_angle(axis, angle):
+    """Unit quaternion cos(angle/2) + axis sin(angle/2); `axis` must be a unit vector."""
+    axis = np.asarray(axis, dtype=float)
+    return np.concatenate([[np.cos(angle / 2)], np.sin(angle / 2) * axis])
+
+
+def quat_rotate(q, v):
+    """Rotate vector v by unit quaternion q: the vector part of q ∘ v ∘ q~."""
+    q = np.asarray(q, dtype=float)
+    v = np.asarray(v, dtype=float)
+    w, u = q[..., :1], q[..., 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def quat_angle(q):
+    """Rotation angle in [0, pi] of unit quaternion q (sign-invariant)."""
+    q = np.asarray(q, dtype=float)
+    vn = np.linalg.norm(q[..., 1:], axis=-1)
+    return 2.0 * np.arctan2(vn, np.abs(q[..., 0]))

@@ -1,0 +1,82 @@
+"""Analytic reference models a scenario's truth is compared with (`reference: {type: NAME}`).
+
+A reference is prepared from the plant at t = 0 (design data and initial state, never the
+later truth) and evaluated at the trace sample times after the run. The reduced CMG model
+also takes the recorded gimbal and rotor histories: they are its input, as in the paper.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from testbed import schema
+from testbed.errors import InputError
+
+
+@dataclass
+class _NoParams:
+    pass
+
+
+@dataclass(frozen=True)
+class ReferenceKind:
+    systems: tuple[str, ...]
+    params: type
+    prepare: Callable   # (plant, params) -> evaluate(times, recorder) -> omega (N, 3)
+
+
+REFERENCES: dict[str, ReferenceKind] = {}
+
+
+def reference(name: str, systems: tuple[str, ...], params: type = _NoParams):
+    def register(prepare):
+        REFERENCES[name] = ReferenceKind(systems, params, prepare)
+        return prepare
+
+    return register
+
+
+def load_params(config: dict, path: str):
+    config = dict(config)
+    name = config.pop("type", None)
+    if name not in REFERENCES:
+        raise InputError(f"{path}.type", f"unknown reference {name!r} (one of {', '.join(sorted(REFERENCES))})")
+    return name, schema.load(REFERENCES[name].params, config, path)
+
+
+def check_system(scenario) -> None:
+    if scenario.reference is None:
+        return
+    name, _ = scenario.reference
+    allowed = REFERENCES[name].systems
+    if scenario.system not in allowed:
+        raise InputError("reference.type", f"{name} needs model.system in {list(allowed)}, got {scenario.system!r}")
+
+
+def prepare(scenario, plant):
+    name, params = scenario.reference
+    return REFERENCES[name].prepare(plant, params)
+
+
+@reference("torque_free", systems=("satellite",))
+def _torque_free(plant, params):
+    """Closed-form torque-free rigid body (Jacobi elliptic functions)."""
+    from testbed.references.torque_free import torque_free_omega
+
+    inertia = plant.locked_inertia()
+    if np.max(np.abs(inertia - np.diag(np.diag(inertia)))) > 1e-9 * np.max(np.abs(inertia)):
+        raise InputError("reference.type", "torque_free needs principal body axes")
+    principal, omega0 = np.diag(inertia).copy(), plant.omega()
+    return lambda times, recorder: torque_free_omega(principal, omega0, times - times[0])
+
+
+@reference("gyrostat", systems=("gyrostat",))
+def _gyrostat(plant, params):
+    """Gyrostat with constant rotor momentum, I' w' + w x (I' w + h) = 0 (solve_ivp)."""
+    from testbed.references.gyrostat_ode import gyrostat_omega
+
+    inertia, h, omega0 = plant.gyrostat_inertia(), plant.rotor_momentum_body(), plant.omega()
+    return lambda times, recorder: gyrostat_omega(inertia, h, omega0, times - times[0])

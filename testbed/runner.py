@@ -1,0 +1,126 @@
+"""Run one scenario: MuJoCo truth stepped at dt, the pipeline sampled at its own period.
+
+Per control tick k (t = k Tc): record the truth (at the trace period), run the pipeline on
+the state at t, hold its command (zero-order hold) for the Tc / dt physics steps to t + Tc.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+import testbed.stages  # noqa: F401  (registers the stages)
+from testbed import metrics, references_registry, systems, trace
+from testbed.errors import InputError
+from testbed.pipeline import Pipeline, StageContext, params_dict
+from testbed.plant import SimulationDiverged
+from testbed.recorder import Recorder
+
+
+@dataclass
+class RunData:
+    """What metrics see after a run."""
+
+    scenario: object
+    recorder: Recorder
+    plant: object
+    momentum_scale: float
+    extra: dict = field(default_factory=dict)
+
+
+@dataclass
+class RunResult:
+    scenario: str
+    sim_s: float
+    wall_s: float
+    status: str                      # "ok" or "diverged"
+    error: str | None
+    metrics: dict[str, float]
+    checks: list[dict]
+    rrd: str | None
+    data: RunData | None = None
+
+    @property
+    def passed(self) -> bool:
+        return self.status == "ok" and all(c["passed"] for c in self.checks)
+
+    def as_json(self) -> dict:
+        return {"scenario": self.scenario, "sim_s": self.sim_s, "wall_s": self.wall_s,
+                "status": self.status, "error": self.error, "metrics": self.metrics,
+                "checks": self.checks, "rrd": self.rrd}
+
+
+def prepare(scenario):
+    """Build the plant, the pipeline and the reference: every design-time check happens here."""
+    references_registry.check_system(scenario)
+    plant = systems.make_plant(scenario)
+    plant.record_energy = scenario.stages["allocator"][0] == "none"
+    plant.initialise(scenario.initial)
+    ctx = StageContext(dt=scenario.sim.dt_s, control_period=scenario.sim.control_period_s,
+                       inertia=plant.locked_inertia(), system=plant.description(), scenario=scenario)
+    pipeline = Pipeline.from_config(scenario.stages, ctx)
+    output = getattr(pipeline.allocator, "output", None)
+    if output is not None and output not in plant.actuators:
+        raise InputError("pipeline.allocator.type", f"{scenario.stages['allocator'][0]} commands {output}, "
+                         f"which model.system {scenario.system} does not have")
+    reference = references_registry.prepare(scenario, plant) if scenario.reference else None
+    return plant, pipeline, reference
+
+
+def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = False) -> RunResult:
+    """Run `scenario`, write the trace to `out` (None: no file) and evaluate its checks."""
+    wall0 = time.perf_counter()
+    plant, pipeline, reference = prepare(scenario)
+    sim = scenario.sim
+    n_ticks = round(sim.duration_s / sim.control_period_s)
+    trace_every = round(sim.trace_period_s / sim.control_period_s)
+    recorder = Recorder(n_ticks // trace_every + 1)
+    momentum_scale = plant.momentum_scale()
+    status, error = "ok", None
+    try:
+        _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress)
+    except SimulationDiverged as exc:
+        status, error = "diverged", str(exc)
+    if recorder.count:
+        for key, values in plant.derived_signals(recorder).items():
+            recorder.add_series(key, values)
+    data = RunData(scenario, recorder, plant, momentum_scale)
+    if reference is not None and recorder.count > 1:
+        omega_ref = reference(recorder.time, recorder)
+        recorder.add_series("reference/omega", omega_ref)
+        recorder.add_series("reference/omega_error", recorder["truth/omega"] - omega_ref)
+    values = metrics.compute_all(data) if recorder.count > 1 else {}
+    checks = metrics.evaluate_checks(scenario, values) if values else [
+        {"name": n, "value": float("nan"), "limit": lim.text, "passed": False} for n, lim in scenario.checks.items()]
+    result = RunResult(scenario.name, recorder.time[-1] if recorder.count else 0.0, 0.0, status, error,
+                       values, checks, str(out) if out else None, data if keep_data else None)
+    if out is not None:
+        result.wall_s = time.perf_counter() - wall0
+        summary = result.as_json() | {"stages": {slot: {"type": name, **params_dict(p)}
+                                                 for slot, (name, p) in scenario.stages.items()}}
+        trace.write_rrd(Path(out), recorder, summary, plant.scene())
+    result.wall_s = time.perf_counter() - wall0
+    return result
+
+
+def _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress) -> None:
+    steps = sim.steps_per_tick
+    tc = sim.control_period_s
+    report_every = max(1, n_ticks // 200)
+    for k in range(n_ticks + 1):
+        t = k * tc
+        sample = k % trace_every == 0
+        if k == n_ticks:
+            if sample:
+                recorder.sample(t, {"truth": plant.truth()})
+            break
+        signals = pipeline.tick(t, plant)
+        if sample:
+            signals["truth"] = plant.truth()
+            recorder.sample(t, signals)
+        plant.step(steps)
+        if progress is not None and k % report_every == 0:
+            progress(k / n_ticks)

@@ -1,0 +1,225 @@
+"""Scenario files: a YAML experiment validated into a typed `Scenario`.
+
+Layout (every key optional unless marked; units are in the key names, SI and radians inside):
+
+    name: str                       # required
+    description: str
+    model: {system: NAME, ...}      # the physical system and its parameters (testbed.systems)
+    initial: {omega_deg_s | omega_rad_s: [3], quat: [w, x, y, z]}
+    sim: {duration_s (required), dt_s, integrator, control_period_s, trace_period_s}
+    pipeline: {sensor|estimator|law|allocator: {type: NAME, ...params}}   (testbed.pipeline)
+    reference: {type: NAME, ...}    # an analytic model the truth is compared with
+    checks: {METRIC: {max: X} | {min: X}}
+
+`load_scenario(path, overrides)` applies `--set key.path=value` overrides to the raw mapping
+first, so they are validated exactly like the file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import re
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import yaml
+
+from testbed import pipeline, schema
+from testbed.errors import InputError
+from testbed.schema import param
+
+SCENARIO_DIR = Path(__file__).resolve().parent.parent / "scenarios"
+
+
+@dataclass(kw_only=True)
+class SimConfig:
+    duration_s: float = param(gt=0, doc="simulated time")
+    dt_s: float = param(0.002, gt=0, le=1.0, doc="physics step")
+    integrator: Literal["RK4", "Euler", "implicit", "implicitfast"] = "RK4"
+    control_period_s: float | None = param(None, gt=0, doc="pipeline period (default dt_s)")
+    trace_period_s: float | None = param(None, gt=0, doc="trace sample period (default control period)")
+
+    def validate(self, path: str) -> None:
+        if self.control_period_s is None:
+            self.control_period_s = self.dt_s
+        if self.trace_period_s is None:
+            self.trace_period_s = self.control_period_s
+        steps = _multiple(self.control_period_s, self.dt_s, schema.join(path, "control_period_s"), "dt_s")
+        _multiple(self.trace_period_s, self.control_period_s, schema.join(path, "trace_period_s"), "control_period_s")
+        _multiple(self.duration_s, self.control_period_s, schema.join(path, "duration_s"), "control_period_s")
+        self.steps_per_tick = steps
+
+
+def _multiple(value: float, unit: float, path: str, unit_name: str) -> int:
+    """How many `unit`s make `value`; refuses a value that is not a whole multiple."""
+    n = round(value / unit)
+    if n < 1 or abs(n * unit - value) > 1e-9 * max(value, unit):
+        raise InputError(path, f"must be a whole multiple of {unit_name} = {unit:g} s, got {value:g} s")
+    return n
+
+
+@dataclass
+class InitialState:
+    omega_deg_s: list[float] | None = param(None, length=3, doc="body rate, body axes")
+    omega_rad_s: list[float] | None = param(None, length=3, doc="body rate, body axes")
+    quat: list[float] = param([1.0, 0.0, 0.0, 0.0], length=4, doc="attitude (w, x, y, z), body to world")
+
+    def validate(self, path: str) -> None:
+        if self.omega_deg_s is not None and self.omega_rad_s is not None:
+            raise InputError(schema.join(path, "omega_deg_s"), "give omega_deg_s or omega_rad_s, not both")
+        norm = float(np.linalg.norm(self.quat))
+        if abs(norm - 1.0) > 1e-6:
+            raise InputError(schema.join(path, "quat"), f"must be a unit quaternion, norm is {norm:.6g}")
+
+    @property
+    def omega(self) -> np.ndarray:
+        if self.omega_rad_s is not None:
+            return np.array(self.omega_rad_s, dtype=float)
+        return np.deg2rad(self.omega_deg_s or [0.0, 0.0, 0.0])
+
+
+@dataclass
+class CheckLimit:
+    max: float | None = None
+    min: float | None = None
+
+    def validate(self, path: str) -> None:
+        if self.max is None and self.min is None:
+            raise InputError(path, "give max or min")
+
+    def passed(self, value: float) -> bool:
+        if not np.isfinite(value):
+            return False
+        return (self.max is None or value <= self.max) and (self.min is None or value >= self.min)
+
+    @property
+    def text(self) -> str:
+        parts = ([f"<= {self.max:g}"] if self.max is not None else []) + (
+            [f">= {self.min:g}"] if self.min is not None else [])
+        return " and ".join(parts)
+
+
+@dataclass(kw_only=True)
+class _RawScenario:
+    name: str
+    description: str = ""
+    model: dict[str, Any] = param({"system": "satellite"})
+    initial: InitialState = field(default_factory=InitialState)
+    sim: SimConfig = param()
+    pipeline: dict[str, Any] = param({})
+    reference: dict[str, Any] | None = None
+    checks: dict[str, CheckLimit] = param({})
+
+
+@dataclass
+class Scenario:
+    """A validated scenario: every part typed, stage and system parameters included."""
+
+    name: str
+    description: str
+    system: str
+    model: Any                              # the system's params dataclass
+    initial: InitialState
+    sim: SimConfig
+    stages: dict[str, tuple[str, Any]]      # slot -> (stage name, params)
+    reference: tuple[str, Any] | None       # (reference name, params)
+    checks: dict[str, CheckLimit]
+    source: str = ""
+
+
+def parse(data: dict, source: str = "") -> Scenario:
+    """Validate a raw scenario mapping (see module doc) into a `Scenario`."""
+    import testbed.stages  # noqa: F401  (registers the stages)
+    from testbed import references_registry, systems
+
+    raw = schema.load(_RawScenario, data)
+    system_name, model = systems.load_params(raw.model, "model")
+    unknown = set(raw.pipeline) - set(pipeline.SLOTS)
+    if unknown:
+        key = sorted(unknown)[0]
+        raise InputError(f"pipeline.{key}", f"unknown slot (known: {', '.join(pipeline.SLOTS)})")
+    stages = {slot: pipeline.load_params(slot, raw.pipeline.get(slot), f"pipeline.{slot}")
+              for slot in pipeline.SLOTS}
+    reference = None
+    if raw.reference is not None:
+        reference = references_registry.load_params(raw.reference, "reference")
+    scenario = Scenario(raw.name, raw.description, system_name, model, raw.initial, raw.sim,
+                        stages, reference, raw.checks, source)
+    from testbed import metrics  # after the scenario exists: checks name metrics it produces
+
+    metrics.validate_checks(scenario)
+    return scenario
+
+
+def resolve_path(name_or_path: str) -> Path:
+    """A scenario file by path, or by name from the project's scenarios/ folder."""
+    path = Path(name_or_path)
+    if path.is_file():
+        return path
+    candidate = SCENARIO_DIR / (name_or_path if name_or_path.endswith(".yaml") else f"{name_or_path}.yaml")
+    if candidate.is_file():
+        return candidate
+    raise InputError("scenario", f"no such file or scenario name: {name_or_path}")
+
+
+class _Loader(yaml.SafeLoader):
+    """YAML 1.1 reads `1e-9` (no dot) as a string; scientists write it, so read it as a float."""
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+                    |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+                    |\.[0-9_]+(?:[eE][-+][0-9]+)?
+                    |[-+]?\.(?:inf|Inf|INF)
+                    |\.(?:nan|NaN|NAN))$""", re.X),
+    list("-+0123456789."),
+)
+
+
+def yaml_load(text: str):
+    return yaml.load(text, Loader=_Loader)
+
+
+def read_yaml(path: Path) -> dict:
+    try:
+        data = yaml_load(path.read_text())
+    except yaml.YAMLError as exc:
+        where = getattr(exc, "problem_mark", None)
+        line = f" at line {where.line + 1}" if where else ""
+        raise InputError(str(path), f"not valid YAML{line}") from None
+    if not isinstance(data, dict):
+        raise InputError(str(path), "a scenario file must be a YAML mapping")
+    return data
+
+
+def apply_override(data: dict, assignment: str) -> None:
+    """Apply one `key.path=value` override in place; the value is parsed as YAML."""
+    if "=" not in assignment:
+        raise InputError("--set", f"expected key.path=value, got {assignment!r}")
+    key, text = assignment.split("=", 1)
+    parts = key.strip().split(".")
+    if not all(parts):
+        raise InputError("--set", f"bad key path {key!r}")
+    try:
+        value = yaml_load(text)
+    except yaml.YAMLError:
+        raise InputError(key, f"cannot parse value {text!r}") from None
+    node = data
+    for i, part in enumerate(parts[:-1]):
+        child = node.get(part)
+        if child is None:
+            child = node[part] = {}
+        if not isinstance(child, dict):
+            raise InputError(".".join(parts[: i + 1]), "is not a mapping, cannot set a key below it")
+        node = child
+    node[parts[-1]] = value
+
+
+def load_scenario(name_or_path: str, overrides: list[str] = ()) -> Scenario:
+    path = resolve_path(name_or_path)
+    data = read_yaml(path)
+    for assignment in overrides:
+        apply_override(data, assignment)
+    return parse(data, str(path))

@@ -1,0 +1,155 @@
+"""Typed dataclass schemas for scenario files: load, default, and validate nested dicts.
+
+A schema is a dataclass whose fields carry `param(...)` metadata (unit in the key name,
+bounds, fixed vector length). `load(cls, data, path)` refuses unknown keys, wrong types and
+values out of bounds with an `InputError` naming the dotted field path; a dataclass may add
+cross-field checks in a `validate(self, path)` method.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+from typing import Any, Literal, get_args, get_origin
+
+from testbed.errors import InputError
+
+_MISSING = dataclasses.MISSING
+
+
+def param(default=_MISSING, *, gt=None, ge=None, lt=None, le=None, length=None, doc=""):
+    """A schema field: default (a list default is copied per instance), bounds, vector length."""
+    meta = {"gt": gt, "ge": ge, "lt": lt, "le": le, "length": length, "doc": doc}
+    if isinstance(default, (list, dict)):
+        value = default
+        return dataclasses.field(default_factory=lambda: type(value)(value), metadata=meta)
+    return dataclasses.field(default=default, metadata=meta)
+
+
+def join(path: str, key: str) -> str:
+    return f"{path}.{key}" if path else key
+
+
+def _type_name(tp) -> str:
+    if get_origin(tp) is Literal:
+        return "one of " + ", ".join(repr(a) for a in get_args(tp))
+    return getattr(tp, "__name__", str(tp))
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _convert(tp, value, path: str, meta: dict):
+    origin = get_origin(tp)
+    if origin in (typing.Union, types.UnionType):
+        options = get_args(tp)
+        if value is None and type(None) in options:
+            return None
+        for option in options:
+            if option is type(None):
+                continue
+            return _convert(option, value, path, meta)
+    if tp is Any:
+        return value
+    if origin is Literal:
+        if value not in get_args(tp):
+            raise InputError(path, f"must be {_type_name(tp)}, got {value!r}")
+        return value
+    if dataclasses.is_dataclass(tp):
+        return load(tp, value, path)
+    if tp is float:
+        if not _is_number(value):
+            raise InputError(path, f"must be a number, got {value!r}")
+        value = float(value)
+        if not math.isfinite(value):
+            raise InputError(path, f"must be finite, got {value!r}")
+        _check_bounds(value, path, meta)
+        return value
+    if tp is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise InputError(path, f"must be an integer, got {value!r}")
+        _check_bounds(value, path, meta)
+        return value
+    if tp is bool:
+        if not isinstance(value, bool):
+            raise InputError(path, f"must be true or false, got {value!r}")
+        return value
+    if tp is str:
+        if not isinstance(value, str):
+            raise InputError(path, f"must be a string, got {value!r}")
+        return value
+    if origin is list:
+        (item_tp,) = get_args(tp)
+        if not isinstance(value, (list, tuple)):
+            raise InputError(path, f"must be a list, got {value!r}")
+        length = meta.get("length")
+        if length is not None and len(value) != length:
+            raise InputError(path, f"must have {length} elements, got {len(value)}")
+        return [_convert(item_tp, v, f"{path}[{i}]", meta) for i, v in enumerate(value)]
+    if origin is dict:
+        if not isinstance(value, dict):
+            raise InputError(path, f"must be a mapping, got {value!r}")
+        _, val_tp = get_args(tp)
+        return {str(k): _convert(val_tp, v, join(path, str(k)), meta) for k, v in value.items()}
+    raise TypeError(f"schema type {tp!r} at {path} is not supported")
+
+
+def _check_bounds(value, path: str, meta: dict) -> None:
+    for key, ok, word in (
+        ("gt", lambda v, b: v > b, ">"),
+        ("ge", lambda v, b: v >= b, ">="),
+        ("lt", lambda v, b: v < b, "<"),
+        ("le", lambda v, b: v <= b, "<="),
+    ):
+        bound = meta.get(key)
+        if bound is not None and not ok(value, bound):
+            raise InputError(path, f"must be {word} {bound}, got {value:g}")
+
+
+def load(cls, data, path: str = ""):
+    """Build dataclass `cls` from mapping `data`, validating every field (see module doc)."""
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise InputError(path or "scenario", f"must be a mapping, got {data!r}")
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    for key in data:
+        if key not in fields:
+            known = ", ".join(sorted(fields))
+            raise InputError(join(path, str(key)), f"unknown key (known: {known})")
+    hints = typing.get_type_hints(cls)
+    kwargs = {}
+    for name, f in fields.items():
+        fpath = join(path, name)
+        if name in data:
+            kwargs[name] = _convert(hints[name], data[name], fpath, dict(f.metadata))
+        elif f.default is _MISSING and f.default_factory is _MISSING:
+            raise InputError(fpath, "is required")
+    obj = cls(**kwargs)
+    validate = getattr(obj, "validate", None)
+    if validate is not None:
+        validate(path)
+    return obj
+
+
+def describe(cls, path: str = "") -> list[tuple[str, str, str]]:
+    """(field path, type, default) rows for documentation and `testbed schema`."""
+    rows = []
+    hints = typing.get_type_hints(cls)
+    for f in dataclasses.fields(cls):
+        tp = hints[f.name]
+        fpath = join(path, f.name)
+        if dataclasses.is_dataclass(tp):
+            rows.extend(describe(tp, fpath))
+            continue
+        if f.default is not _MISSING:
+            default = repr(f.default)
+        elif f.default_factory is not _MISSING:
+            default = repr(f.default_factory())
+        else:
+            default = "required"
+        rows.append((fpath, _type_name(tp), default))
+    return rows

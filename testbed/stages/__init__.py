@@ -1,0 +1,3 @@
+"""Pipeline stages; importing this package registers every stage by name."""
+
+from testbed.stages import open_loop  # noqa: F401

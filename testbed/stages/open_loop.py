@@ -1,0 +1,141 @@
+"""Open-loop stages: no sensor, no estimator, prescribed torque or gimbal-rate profiles.
+
+They let a validation scenario drive the plant without any controller: `torque_profile`
+(a law) with the `ideal_torque` allocator applies M(t) = M0 + A sin(2 pi f t + phi) on the
+bus; `gimbal_rate_profile` (an allocator) commands each gimbal rate directly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from testbed.pipeline import stage
+from testbed.schema import param
+
+ZERO3 = [0.0, 0.0, 0.0]
+
+
+@stage("sensor", "none")
+class NoSensor:
+    def __init__(self, params, ctx):
+        pass
+
+    def measure(self, t, plant):
+        return {}
+
+
+@stage("estimator", "none")
+class NoEstimator:
+    def __init__(self, params, ctx):
+        pass
+
+    def estimate(self, t, measurement, command):
+        return {}
+
+
+@stage("law", "none")
+class NoLaw:
+    def __init__(self, params, ctx):
+        pass
+
+    def torque(self, t, estimate):
+        return {}
+
+
+@stage("allocator", "none")
+class NoActuation:
+    def __init__(self, params, ctx):
+        pass
+
+    def allocate(self, t, demand, estimate, actuators):
+        return {}
+
+
+@dataclass
+class SinusoidProfile:
+    """x(t) = offset + amplitude sin(2 pi frequency t + phase), per component, inside [start, stop)."""
+
+    offset: list[float] = param(ZERO3)
+    amplitude: list[float] = param(ZERO3)
+    frequency_hz: list[float] = param(ZERO3, ge=0)
+    phase_deg: list[float] = param(ZERO3)
+    start_s: float = param(0.0, ge=0)
+    stop_s: float | None = param(None, ge=0)
+
+    def validate(self, path: str) -> None:
+        from testbed.errors import InputError
+
+        n = {len(self.offset), len(self.amplitude), len(self.frequency_hz), len(self.phase_deg)}
+        if len(n) != 1:
+            raise InputError(path, "offset, amplitude, frequency_hz and phase_deg must have equal lengths")
+        if self.stop_s is not None and self.stop_s <= self.start_s:
+            raise InputError(f"{path}.stop_s", f"must be > start_s = {self.start_s:g}")
+        self._offset = np.array(self.offset)
+        self._amp = np.array(self.amplitude)
+        self._omega = 2 * np.pi * np.array(self.frequency_hz)
+        self._phase = np.deg2rad(self.phase_deg)
+
+    def __call__(self, t: float) -> np.ndarray:
+        if t < self.start_s or (self.stop_s is not None and t >= self.stop_s):
+            return np.zeros_like(self._offset)
+        return self._offset + self._amp * np.sin(self._omega * t + self._phase)
+
+
+@dataclass
+class TorqueProfileParams(SinusoidProfile):
+    """Body torque [N m], body axes."""
+
+
+@stage("law", "torque_profile", TorqueProfileParams)
+class TorqueProfile:
+    def __init__(self, params, ctx):
+        self.profile = params
+
+    def torque(self, t, estimate):
+        return {"torque": self.profile(t)}
+
+
+@stage("allocator", "ideal_torque")
+class IdealTorque:
+    """Applies the demanded torque exactly on the bus (torque motors on its centre site)."""
+
+    output = "body_torque"
+
+    def __init__(self, params, ctx):
+        pass
+
+    def allocate(self, t, demand, estimate, actuators):
+        return {"body_torque": np.asarray(demand.get("torque", np.zeros(3)), float)}
+
+
+@dataclass
+class GimbalRateProfileParams(SinusoidProfile):
+    """Gimbal rates [rad/s] per gimbal (write them with *_deg_s below for degrees)."""
+
+    offset: list[float] = param([0.0] * 4)
+    amplitude: list[float] = param([0.0] * 4)
+    frequency_hz: list[float] = param([0.0] * 4, ge=0)
+    phase_deg: list[float] = param([0.0] * 4)
+    amplitude_deg_s: list[float] | None = None
+    offset_deg_s: list[float] | None = None
+
+    def validate(self, path: str) -> None:
+        if self.amplitude_deg_s is not None:
+            self.amplitude = list(np.deg2rad(self.amplitude_deg_s))
+        if self.offset_deg_s is not None:
+            self.offset = list(np.deg2rad(self.offset_deg_s))
+        super().validate(path)
+
+
+@stage("allocator", "gimbal_rate_profile", GimbalRateProfileParams)
+class GimbalRateProfile:
+    output = "gimbal_rates"
+    needs_actuators = False
+
+    def __init__(self, params, ctx):
+        self.profile = params
+
+    def allocate(self, t, demand, estimate, actuators):
+        return {"gimbal_rates": self.profile(t)}

@@ -1,0 +1,151 @@
+"""Write a run to a Rerun 0.41 `.rrd`: every recorded signal, a 3D scene, a blueprint, the result.
+
+Entity paths: `<group>/<signal>` for every recorded signal (groups `truth`, `sensor`,
+`estimator`, `law`, `allocator`, `reference`), `world/bus` (attitude as a transform with the
+bus box), `world/angular_momentum` (total, world frame), `world/bus/cmg_momentum` (cluster
+momentum, body frame) and `run/result` (the metrics and checks as JSON, read back by
+`testbed inspect`). Everything is buffered and sent with `send_columns` on `sim_time`.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import uuid
+from pathlib import Path
+
+import numpy as np
+import rerun as rr
+import rerun.blueprint as rrb
+
+from testbed.recorder import Recorder
+
+APP_ID = "gyrodyne-testbed"
+RESULT_ENTITY = "run/result"
+TIMELINE = "sim_time"
+
+# Unit and component labels by signal name; a signal not listed is plotted unlabelled.
+UNITS = {
+    "omega": "rad/s", "omega_error": "rad/s", "y": "rad/s", "bias": "rad/s",
+    "quat": "", "attitude_error": "rad",
+    "angular_momentum_world": "N m s", "cmg_momentum": "N m s", "internal_momentum": "N m s",
+    "kinetic_energy": "J", "torque": "N m", "body_torque": "N m", "torque_delivered": "N m",
+    "gimbal_angle": "rad", "gimbal_rate": "rad/s", "gimbal_rates": "rad/s", "rotor_rate": "rad/s",
+    "singularity": "", "scale": "", "z": "rad/s",
+}
+AXES = {3: ["x", "y", "z"], 4: ["1", "2", "3", "4"]}
+
+
+def _series_names(name: str, width: int) -> list[str]:
+    unit = UNITS.get(name, "")
+    suffix = f" [{unit}]" if unit else ""
+    if name == "quat":
+        labels = ["w", "x", "y", "z"]
+    else:
+        labels = AXES.get(width, [str(i + 1) for i in range(width)])
+    if width == 1:
+        return [f"{name}{suffix}"]
+    return [f"{name}_{label}{suffix}" for label in labels]
+
+
+def _blueprint(recorder: Recorder, has_scene: bool) -> rrb.Blueprint:
+    groups: dict[str, list[str]] = {}
+    for key in recorder.keys():
+        groups.setdefault(key.split("/")[0], []).append(key)
+    tabs = [rrb.Grid(*[rrb.TimeSeriesView(origin=f"/{key}", name=key) for key in keys], name=group)
+            for group, keys in groups.items()]
+    plots = rrb.Tabs(*tabs) if tabs else rrb.TextDocumentView(origin=f"/{RESULT_ENTITY}")
+    left = [rrb.Spatial3DView(origin="/world", name="attitude")] if has_scene else []
+    left.append(rrb.TextDocumentView(origin="/run/summary", name="result"))
+    return rrb.Blueprint(
+        rrb.Horizontal(rrb.Vertical(*left, row_shares=[3, 1][: len(left)]), plots, column_shares=[2, 3]),
+        rrb.TimePanel(state="expanded"),
+        collapse_panels=False,
+    )
+
+
+def write_rrd(path: Path, recorder: Recorder, result: dict, scene: dict | None = None) -> Path:
+    """Write `recorder`'s signals, the optional 3D `scene` and `result` to `path`.
+
+    The file is written beside `path` first and renamed at the end, so an interrupted write
+    never leaves a complete-looking file. `scene` may hold `bus_half_size` (3,) [m] and a
+    `momentum_scale` [m per N m s] for the arrows.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_name(path.name + ".partial")
+    rec = rr.RecordingStream(APP_ID, recording_id=str(uuid.uuid4()))
+    rec.save(str(partial))
+    rec.send_blueprint(_blueprint(recorder, scene is not None))
+    times = rr.TimeColumn(TIMELINE, duration=recorder.time)
+    for key in recorder.keys():
+        values = np.asarray(recorder[key], float)
+        if values.ndim == 1:
+            values = values[:, None]
+        values = values.reshape(len(values), -1)
+        name = key.rsplit("/", 1)[-1]
+        rec.log(key, rr.SeriesLines(names=_series_names(name, values.shape[1])), static=True)
+        rec.send_columns(key, indexes=[times], columns=rr.Scalars.columns(scalars=values))
+    if scene is not None:
+        _write_scene(rec, recorder, times, scene)
+    rec.log(RESULT_ENTITY, rr.TextDocument(json.dumps(result, indent=1), media_type="text/plain"), static=True)
+    rec.log("run/summary", rr.TextDocument(_summary_markdown(result), media_type="text/markdown"), static=True)
+    rec.flush()
+    del rec
+    os.replace(partial, path)
+    return path
+
+
+def _write_scene(rec, recorder: Recorder, times, scene: dict) -> None:
+    half = np.asarray(scene.get("bus_half_size", [0.5, 0.5, 0.5]), float)
+    rec.log("world/bus", rr.Boxes3D(half_sizes=[half], colors=[[170, 175, 190]], fill_mode="solid"), static=True)
+    rec.log("world/bus/axes", rr.Arrows3D(vectors=np.eye(3) * 1.5 * half.max(),
+                                          colors=[[220, 60, 60], [60, 200, 60], [60, 60, 220]],
+                                          labels=["x", "y", "z"]), static=True)
+    if "truth/quat" in recorder:
+        q = recorder["truth/quat"]
+        rec.send_columns("world/bus", indexes=[times],
+                         columns=rr.Transform3D.columns(quaternion=q[:, [1, 2, 3, 0]]))  # Rerun: xyzw
+    scale = float(scene.get("momentum_scale", 1.0))
+    for key, entity, color in (("truth/angular_momentum_world", "world/angular_momentum", [250, 200, 40]),
+                               ("truth/cmg_momentum", "world/bus/cmg_momentum", [240, 110, 30])):
+        if key in recorder:
+            vectors = recorder[key] * scale
+            rec.send_columns(entity, indexes=[times],
+                             columns=rr.Arrows3D.columns(vectors=vectors, origins=np.zeros_like(vectors),
+                                                         colors=np.tile(color, (len(vectors), 1))))
+
+
+def _summary_markdown(result: dict) -> str:
+    lines = [f"# {result.get('scenario', '')}", "", f"status: **{result.get('status', '')}**", "",
+             "| check | value | limit | passed |", "|---|---|---|---|"]
+    for check in result.get("checks", []):
+        lines.append(f"| {check['name']} | {check['value']:.4g} | {check['limit']} | {check['passed']} |")
+    lines += ["", "| metric | value |", "|---|---|"]
+    lines += [f"| {k} | {v:.6g} |" for k, v in result.get("metrics", {}).items()]
+    return "\n".join(lines)
+
+
+def read_rrd(path: Path) -> dict:
+    """Read back a run: entities, time span, and the stored result (not recomputed)."""
+    from rerun.chunk import RrdReader
+
+    entities: dict[str, int] = {}
+    t_min, t_max = np.inf, -np.inf
+    result = None
+    for chunk in RrdReader(str(path)).stream():
+        entity = str(chunk.entity_path)
+        if entity.startswith("/__"):
+            continue
+        batch = chunk.to_record_batch()
+        entities[entity] = entities.get(entity, 0) + batch.num_rows
+        if TIMELINE in batch.schema.names:
+            column = batch.column(TIMELINE).cast("int64").to_numpy()
+            if len(column):
+                t_min, t_max = min(t_min, column.min() / 1e9), max(t_max, column.max() / 1e9)
+        if entity == f"/{RESULT_ENTITY}":
+            result = json.loads(batch.column("TextDocument:text")[0].as_py()[0])
+    if result is None:
+        raise ValueError(f"{path}: no {RESULT_ENTITY} entity: not a testbed run")
+    span = [float(t_min), float(t_max)] if np.isfinite(t_min) else [0.0, 0.0]
+    return {"entities": entities, "time_span_s": span, "result": result}

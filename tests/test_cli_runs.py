@@ -1,0 +1,81 @@
+"""The CLI end to end: run, --json, inspect reads back the stored result, failures, divergence."""
+
+import json
+
+import numpy as np
+import pytest
+
+from testbed.cli import main
+from testbed.scenario import SCENARIO_DIR
+from testbed.trace import read_rrd
+
+SHORT_GYROSTAT = ["run", "gyrostat_free", "--set", "sim.duration_s=20", "--json"]
+
+
+def test_run_json_and_inspect_agree(tmp_path, capsys):
+    out = tmp_path / "g.rrd"
+    assert main(SHORT_GYROSTAT + ["--out", str(out)]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert set(result) >= {"scenario", "sim_s", "wall_s", "metrics", "checks", "rrd"}
+    assert result["sim_s"] == pytest.approx(20.0)
+    assert all(c["passed"] for c in result["checks"])
+    assert main(["inspect", str(out), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["result"]["metrics"] == result["metrics"]
+    assert info["result"]["checks"] == result["checks"]
+    assert info["time_span_s"] == pytest.approx([0.0, 20.0])
+    assert {"/truth/omega", "/truth/angular_momentum_world", "/reference/omega_error", "/world/bus"} <= set(info["entities"])
+    # one sample per trace period plus the final state
+    assert info["entities"]["/truth/omega"] >= 201
+
+
+def test_recorded_signal_matches_the_summary_metric(tmp_path, capsys):
+    """The max omega error in the file's columns equals the metric stored beside it."""
+    from rerun.chunk import RrdReader
+
+    out = tmp_path / "g.rrd"
+    main(SHORT_GYROSTAT + ["--out", str(out)])
+    metric = json.loads(capsys.readouterr().out)["metrics"]["max_omega_error_rad_s"]
+    rows = []
+    for chunk in RrdReader(str(out)).stream():
+        if str(chunk.entity_path) == "/reference/omega_error":
+            column = chunk.to_record_batch().column("Scalars:scalars").to_pylist()
+            rows += [r for r in column if r is not None]
+    assert np.max(np.linalg.norm(np.array(rows), axis=1)) == pytest.approx(metric, rel=1e-12)
+
+
+def test_failing_check_exits_1(tmp_path, capsys):
+    argv = SHORT_GYROSTAT + ["--out", str(tmp_path / "g.rrd"), "--set", "checks.momentum_drift_rel={max: 1e-30}"]
+    assert main(argv) == 1
+    result = json.loads(capsys.readouterr().out)
+    assert [c["passed"] for c in result["checks"] if c["name"] == "momentum_drift_rel"] == [False]
+
+
+def test_divergence_stops_with_a_clear_error_and_a_readable_trace(tmp_path, capsys):
+    """1e12 N m on a 1 kg m^2 body exceeds MuJoCo's acceleration limit: the run must stop, not reset."""
+    out = tmp_path / "d.rrd"
+    argv = ["run", "torque_free_skylab", "--out", str(out), "--json",
+            "--set", "model.inertia_kg_m2=[1, 1, 1]", "--set", "reference=", "--set", "checks={}",
+            "--set", "pipeline={law: {type: torque_profile, offset: [0, 0, 1.0e12], start_s: 10}, "
+                     "allocator: {type: ideal_torque}}"]
+    assert main(argv) == 1
+    result = json.loads(capsys.readouterr().out)
+    assert result["status"] == "diverged" and "diverged at t = 10" in result["error"]
+    info = read_rrd(out)
+    assert info["result"]["status"] == "diverged"
+    assert 9.0 <= info["time_span_s"][1] <= 10.5
+
+
+def test_list_names_every_scenario(capsys):
+    assert main(["list"]) == 0
+    listed = {line.split()[0] for line in capsys.readouterr().out.splitlines()}
+    assert listed == {p.stem for p in SCENARIO_DIR.glob("*.yaml")}
+
+
+def test_check_prints_a_table_and_fails_on_a_failed_check(tmp_path, capsys):
+    scenario = tmp_path / "tight.yaml"
+    scenario.write_text((SCENARIO_DIR / "gyrostat_free.yaml").read_text()
+                        .replace("duration_s: 300", "duration_s: 5").replace("max: 1.0e-10", "max: 1.0e-30"))
+    assert main(["check", str(scenario), "--out-dir", str(tmp_path)]) == 1
+    table = capsys.readouterr().out
+    assert "momentum_drift_rel" in table and "FAIL" in table and "pass" in table
