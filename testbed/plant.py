@@ -27,7 +27,10 @@ class Plant:
         self.domain = domain
         self.model = domain.model
         self.data = mujoco.MjData(self.model)
-        self._badqacc = mujoco.mjtWarning.mjWARN_BADQACC
+        # MuJoCo resets the state (or zeroes the control) on these and carries on: we stop.
+        self._bad = [(w, self.data.warning[w]) for w in (
+            mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
+            mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADCTRL)]
         self.record_energy = False  # the runner turns it on where no actuator does work
 
     # --- state -------------------------------------------------------------------------
@@ -70,9 +73,14 @@ class Plant:
     # --- stepping ----------------------------------------------------------------------
     def step(self, nstep: int) -> None:
         """Advance `nstep` physics steps; raise SimulationDiverged instead of MuJoCo's reset."""
+        t0 = self.time  # MuJoCo's reset on a bad state also resets data.time
         mujoco.mj_step(self.model, self.data, nstep=nstep)
-        if self.data.warning[self._badqacc].number or not np.isfinite(self.data.qvel).all():
-            raise SimulationDiverged(self.time, "bad or non-finite acceleration (mjWARN_BADQACC)")
+        for kind, stat in self._bad:
+            if stat.number:
+                raise SimulationDiverged(t0, f"MuJoCo {kind.name}: NaN, Inf or huge value "
+                                             f"within {nstep} steps after this time")
+        if not np.isfinite(self.data.qvel).all():
+            raise SimulationDiverged(t0, "non-finite velocity")
 
     # --- what subclasses refine ---------------------------------------------------------
     def initialise(self, initial) -> None:

@@ -80,3 +80,25 @@ def _gyrostat(plant, params):
 
     inertia, h, omega0 = plant.gyrostat_inertia(), plant.rotor_momentum_body(), plant.omega()
     return lambda times, recorder: gyrostat_omega(inertia, h, omega0, times - times[0])
+
+
+@dataclass(kw_only=True)
+class ReducedCmgParams:
+    # 1e-9 puts the integrator's own error near 1e-9 rad/s, far inside the usual 1e-6 bound;
+    # tighter tolerances cost 20x more because each control tick's servo transient is resolved.
+    rtol: float = schema.param(1e-9, gt=0, lt=1e-3)
+
+
+@reference("reduced_cmg", systems=("cmg_rhombus",), params=ReducedCmgParams)
+def _reduced_cmg(plant, params):
+    """Reduced CMG model L_b' = -w x L_b, w = I_sys(b)^-1 (L_b - H_int) from the recorded
+    gimbal and rotor histories (testbed.references.reduced_cmg)."""
+    from testbed.references.reduced_cmg import CmgMassModel, reduced_cmg_omega
+
+    mass_model, omega0 = CmgMassModel.from_model(plant.model), plant.omega()
+
+    def evaluate(times, recorder):
+        return reduced_cmg_omega(mass_model, times, recorder["truth/gimbal_angle"], recorder["truth/gimbal_rate"],
+                                 recorder["truth/rotor_rate"], omega0, times, rtol=params.rtol, atol=1e-14)
+
+    return evaluate

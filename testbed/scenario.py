@@ -45,18 +45,10 @@ class SimConfig:
             self.control_period_s = self.dt_s
         if self.trace_period_s is None:
             self.trace_period_s = self.control_period_s
-        steps = _multiple(self.control_period_s, self.dt_s, schema.join(path, "control_period_s"), "dt_s")
-        _multiple(self.trace_period_s, self.control_period_s, schema.join(path, "trace_period_s"), "control_period_s")
-        _multiple(self.duration_s, self.control_period_s, schema.join(path, "duration_s"), "control_period_s")
+        steps = schema.whole_multiple(self.control_period_s, self.dt_s, schema.join(path, "control_period_s"), "dt_s")
+        schema.whole_multiple(self.trace_period_s, self.control_period_s, schema.join(path, "trace_period_s"), "control_period_s")
+        schema.whole_multiple(self.duration_s, self.control_period_s, schema.join(path, "duration_s"), "control_period_s")
         self.steps_per_tick = steps
-
-
-def _multiple(value: float, unit: float, path: str, unit_name: str) -> int:
-    """How many `unit`s make `value`; refuses a value that is not a whole multiple."""
-    n = round(value / unit)
-    if n < 1 or abs(n * unit - value) > 1e-9 * max(value, unit):
-        raise InputError(path, f"must be a whole multiple of {unit_name} = {unit:g} s, got {value:g} s")
-    return n
 
 
 @dataclass

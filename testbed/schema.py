@@ -153,3 +153,11 @@ def describe(cls, path: str = "") -> list[tuple[str, str, str]]:
             default = "required"
         rows.append((fpath, _type_name(tp), default))
     return rows
+
+
+def whole_multiple(value: float, unit: float, path: str, unit_name: str) -> int:
+    """How many `unit`s make `value`; refuses a value that is not a whole multiple."""
+    n = round(value / unit)
+    if n < 1 or abs(n * unit - value) > 1e-9 * max(value, unit):
+        raise InputError(path, f"must be a whole multiple of {unit_name} = {unit:g} s, got {value:g} s")
+    return n

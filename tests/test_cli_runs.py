@@ -38,9 +38,9 @@ def test_recorded_signal_matches_the_summary_metric(tmp_path, capsys):
     metric = json.loads(capsys.readouterr().out)["metrics"]["max_omega_error_rad_s"]
     rows = []
     for chunk in RrdReader(str(out)).stream():
-        if str(chunk.entity_path) == "/reference/omega_error":
-            column = chunk.to_record_batch().column("Scalars:scalars").to_pylist()
-            rows += [r for r in column if r is not None]
+        batch = chunk.to_record_batch()
+        if str(chunk.entity_path) == "/reference/omega_error" and "Scalars:scalars" in batch.schema.names:
+            rows += [r for r in batch.column("Scalars:scalars").to_pylist() if r is not None]
     assert np.max(np.linalg.norm(np.array(rows), axis=1)) == pytest.approx(metric, rel=1e-12)
 
 
@@ -51,16 +51,23 @@ def test_failing_check_exits_1(tmp_path, capsys):
     assert [c["passed"] for c in result["checks"] if c["name"] == "momentum_drift_rel"] == [False]
 
 
-def test_divergence_stops_with_a_clear_error_and_a_readable_trace(tmp_path, capsys):
-    """1e12 N m on a 1 kg m^2 body exceeds MuJoCo's acceleration limit: the run must stop, not reset."""
+@pytest.mark.parametrize("torque, inertia, warning", [
+    (1.0e9, 1.0e-3, "BADQACC"),   # qacc = 1e12 exceeds MuJoCo's limit: it would reset the state
+    (1.0e12, 1.0, "BADCTRL"),     # a huge command: MuJoCo would zero it silently
+])
+def test_divergence_stops_with_a_clear_error_and_a_readable_trace(torque, inertia, warning, tmp_path,
+                                                                    capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its MUJOCO_LOG.TXT into the working directory
     out = tmp_path / "d.rrd"
     argv = ["run", "torque_free_skylab", "--out", str(out), "--json",
-            "--set", "model.inertia_kg_m2=[1, 1, 1]", "--set", "reference=", "--set", "checks={}",
-            "--set", "pipeline={law: {type: torque_profile, offset: [0, 0, 1.0e12], start_s: 10}, "
+            "--set", f"model.inertia_kg_m2=[{inertia}, {inertia}, {inertia}]", "--set", "reference=",
+            "--set", "checks={}",
+            "--set", f"pipeline={{law: {{type: torque_profile, offset: [0, 0, {torque}], start_s: 10}}, "
                      "allocator: {type: ideal_torque}}"]
     assert main(argv) == 1
     result = json.loads(capsys.readouterr().out)
     assert result["status"] == "diverged" and "diverged at t = 10" in result["error"]
+    assert warning in result["error"]
     info = read_rrd(out)
     assert info["result"]["status"] == "diverged"
     assert 9.0 <= info["time_span_s"][1] <= 10.5

@@ -1,3 +1,3 @@
 """Pipeline stages; importing this package registers every stage by name."""
 
-from testbed.stages import open_loop  # noqa: F401
+from testbed.stages import open_loop, rate_gyro, steering  # noqa: F401

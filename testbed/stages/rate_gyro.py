@@ -1,0 +1,58 @@
+"""Single-axis rate gyro: y = p . w + bias + noise, quantised, sampled at its own period.
+
+The only measurement of the Lebedev problem (Lebedev 1976, eq. 1.1). The sensing axis p is a
+unit vector in body axes; a non-unit axis is refused, never normalised. Between samples the
+last sample is held; `stamp` is the time the held sample was taken.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from testbed.physical_checks import check_unit_vector
+from testbed.pipeline import stage
+from testbed.schema import join, param, whole_multiple
+
+
+@dataclass(kw_only=True)
+class RateGyroParams:
+    axis: list[float] = param(length=3, doc="unit sensing axis p, body axes")
+    sample_period_s: float | None = param(None, gt=0, doc="default: the control period")
+    noise_sigma_rad_s: float = param(0.0, ge=0, doc="white noise, standard deviation per sample")
+    bias_rad_s: float = param(0.0, doc="constant bias")
+    quantisation_rad_s: float = param(0.0, ge=0, doc="output step (0: none)")
+    seed: int = param(0, ge=0, doc="noise seed: the same seed gives the same samples bit for bit")
+
+    def validate(self, path: str) -> None:
+        check_unit_vector(self.axis, join(path, "axis"))
+
+
+@stage("sensor", "rate_gyro", RateGyroParams)
+class RateGyro:
+    def __init__(self, params: RateGyroParams, ctx):
+        self.axis = np.asarray(params.axis, float)
+        period = params.sample_period_s or ctx.control_period
+        field = "pipeline.sensor.sample_period_s"
+        self.every = whole_multiple(period, ctx.dt, field, "the physics step sim.dt_s")
+        self.every_tick = whole_multiple(period, ctx.control_period, field, "sim.control_period_s")
+        self.params = params
+        self.rng = np.random.default_rng(params.seed)
+        self.tick = 0
+        self.y = np.zeros(1)
+        self.stamp = np.zeros(1)
+
+    def measure(self, t, plant):
+        if self.tick % self.every_tick == 0:
+            p = self.params
+            y = self.axis @ plant.omega() + p.bias_rad_s
+            if p.noise_sigma_rad_s:
+                y += p.noise_sigma_rad_s * self.rng.standard_normal()
+            if p.quantisation_rad_s:
+                y = p.quantisation_rad_s * np.round(y / p.quantisation_rad_s)
+            self.y = np.array([y])
+            self.stamp = np.array([t])
+        self.tick += 1
+        return {"y": self.y, "stamp": self.stamp}
+

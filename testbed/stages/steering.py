@@ -1,0 +1,70 @@
+"""CMG steering as an allocator: wanted body torque -> gimbal-rate commands.
+
+The cluster must deliver H' = -(M + w x H) (SEEDS §004 eq. 14, 16, body frame) through
+h J(b) b' = H' (eq. 17); J, h and H are read from the compiled model (ClusterGeometry) at
+the measured gimbal angles and rotor speeds. Each law of testbed.steering is a stage type:
+`pinv`, `sr`, `gsr`, `minimax_lp`, `minimax`. When the best achievable max |b'_i| exceeds
+b'max the demand is scaled down, keeping its direction; `scale` records the factor and
+`torque_delivered` the torque the command produces on the bus.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from testbed.errors import InputError
+from testbed.pipeline import stage
+from testbed.schema import param
+from testbed.steering import LAW_OPTIONS, STEERING_LAWS
+
+
+@dataclass(kw_only=True)
+class SteeringParams:
+    beta_rate_max_deg_s: float = param(gt=0, doc="gimbal-rate limit")
+    options: dict[str, float] = field(default_factory=dict)  # law options, e.g. rcond, lambda0
+
+
+class SteeringAllocator:
+    output = "gimbal_rates"
+    law_name = ""
+
+    def __init__(self, params: SteeringParams, ctx):
+        if ctx.system is None or not hasattr(ctx.system, "unit_jacobian"):
+            raise InputError("pipeline.allocator.type", f"{self.law_name} steering needs model.system cmg_rhombus")
+        for option in params.options:
+            if option not in LAW_OPTIONS[self.law_name]:
+                allowed = ", ".join(LAW_OPTIONS[self.law_name]) or "none"
+                raise InputError(f"pipeline.allocator.options.{option}",
+                                 f"not an option of {self.law_name} (options: {allowed})")
+        self.geometry = ctx.system
+        self.law = STEERING_LAWS[self.law_name]
+        self.rate_max = np.radians(params.beta_rate_max_deg_s)
+        self.options = params.options
+
+    def allocate(self, t, demand, estimate, actuators):
+        beta, rotor = actuators["gimbal_angle"], actuators["rotor_rate"]
+        torque = np.asarray(demand.get("torque", np.zeros(3)), float)
+        omega = np.asarray(estimate.get("omega", np.zeros(3)), float)
+        momentum = self.geometry.momentum(beta, rotor)
+        gyroscopic = np.cross(omega, momentum)
+        hdot = -(torque + gyroscopic)
+        options = dict(self.options)
+        if self.law_name == "gsr":
+            options["t"] = t
+        result = self.law(self.geometry.unit_jacobian(beta), self.geometry.h, hdot, self.rate_max, **options)
+        return {"gimbal_rates": result.beta_rate,
+                "torque_delivered": -result.hdot_delivered - gyroscopic,
+                "scale": np.array([result.scale]),
+                "singularity": np.array([result.singularity_measure]),
+                "rank": np.array([float(result.rank)])}
+
+
+def _register(name: str) -> None:
+    cls = type(f"{name}_steering", (SteeringAllocator,), {"law_name": name, "__doc__": STEERING_LAWS[name].__doc__})
+    stage("allocator", name, SteeringParams)(cls)
+
+
+for _name in STEERING_LAWS:
+    _register(_name)

@@ -1,0 +1,66 @@
+"""CMG steering laws: gimbal rates beta' (4,) that deliver a wanted momentum rate H'.
+
+The cluster obeys h J(beta) beta' = H' (SEEDS §004 eq. 17), J the 3x4 unit-h Jacobian
+supplied by the caller. Every law has the signature
+
+    law(J, h, Hdot, beta_rate_max, **options) -> SteeringResult
+
+and never commands |beta'_i| > beta_rate_max: it scales the demand by the largest k in
+(0, 1] that fits, keeping its direction. At rank J < 3 the pseudo-inverse and min-max laws
+deliver the least-squares projection of H' onto range(J); SR/GSR damp instead.
+
+    pinv        pseudo-inverse, eq. (20) corrected             pseudo_inverse.py
+    sr          Nakamura-Hanafusa singularity-robust inverse   sr_inverse.py
+    gsr         Wie's generalized SR inverse (dithered)        sr_inverse.py
+    minimax_lp  min-max, eq. (21)-(28), scipy HiGHS LP         minimax_lp.py
+    minimax     min-max, exact closed form (~us)               minimax_exact.py
+"""
+
+from __future__ import annotations
+
+import inspect
+
+from testbed.errors import InputError
+from testbed.steering.minimax_exact import minimax_steering
+from testbed.steering.minimax_lp import minimax_lp_steering
+from testbed.steering.pseudo_inverse import pinv_steering
+from testbed.steering.result import SteeringResult
+from testbed.steering.sr_inverse import gsr_steering, sr_steering
+
+STEERING_LAWS = {
+    "pinv": pinv_steering,
+    "sr": sr_steering,
+    "gsr": gsr_steering,
+    "minimax_lp": minimax_lp_steering,
+    "minimax": minimax_steering,
+}
+
+# Keyword options each law accepts, read from its signature.
+LAW_OPTIONS = {name: tuple(p.name for p in inspect.signature(law).parameters.values()
+                           if p.kind is inspect.Parameter.KEYWORD_ONLY)
+               for name, law in STEERING_LAWS.items()}
+
+
+def steering_law(name: str):
+    """The law registered under `name`, or InputError("steering.law", ...)."""
+    try:
+        return STEERING_LAWS[name]
+    except (KeyError, TypeError):
+        raise InputError("steering.law", f"unknown law {name!r}; choose one of "
+                         f"{', '.join(STEERING_LAWS)}") from None
+
+
+def steer(name: str, J, h, Hdot, beta_rate_max, **options) -> SteeringResult:
+    """Run the law `name`; unknown options raise InputError("steering.<option>", ...)."""
+    law = steering_law(name)
+    for option in options:
+        if option not in LAW_OPTIONS[name]:
+            allowed = ", ".join(LAW_OPTIONS[name]) or "none"
+            raise InputError(f"steering.{option}", f"not an option of law {name!r} "
+                             f"(options: {allowed})")
+    return law(J, h, Hdot, beta_rate_max, **options)
+
+
+__all__ = ["STEERING_LAWS", "LAW_OPTIONS", "SteeringResult", "steer", "steering_law",
+           "pinv_steering", "sr_steering", "gsr_steering", "minimax_lp_steering",
+           "minimax_steering"]

@@ -1,0 +1,134 @@
+"""Exact closed-form min-max steering for a 4-gimbal cluster (SEEDS §004 eq. (21)-(27)).
+
+A 3x4 J of rank 3 has a one-dimensional null space n, so every solution of J beta' = b is
+beta' = x + t n (t real), and the min-max objective f(t) = max_i |x_i + t n_i| is convex and
+piecewise linear in the scalar t. This is the paper's reduction (23)-(24) (there t = beta'_1)
+solved without an LP: write each |x_i + t n_i| as w_i |t - r_i| with w_i = |n_i|; the increasing
+line of pair i and the decreasing line of pair j cross at value
+
+    v_ij = (w_j s_i x_i - w_i s_j x_j) / (w_i + w_j),  s_i = sign(n_i),
+
+at t_ij = -(s_i x_i + s_j x_j) / (w_i + w_j). Every v_ij is a lower bound of f (one line rises,
+the other falls), and at the minimiser the rising and falling envelopes meet at such a
+crossing, so min f = max_ij v_ij, reached at the t_ij of the maximising pair (12 pairs).
+Lines with n_i = 0 are constants |x_i|; they are left out of the pairs and cannot change the
+minimiser, only the value, which is read off the final beta' anyway.
+
+The null vector is the signed 3x3 minors n_i = (-1)^i det(J without column i) (Laplace
+expansion of a 4x4 with a repeated row gives J n = 0), and |n| = sqrt(det(J J^T)) by
+Cauchy-Binet, so the singularity measure comes free. A particular solution x has x_k = 0 for
+the k with the largest minor and the other three from Y^-1 b (adjugate of Y, eq. 22). All of it is done on
+Python floats: for 4 unknowns that is several times faster than numpy's per-call overhead.
+
+Where minors lose relative accuracy (|n| <= 1e-4 |J|_F^3) the null vector and minimum-norm
+solution come from the SVD instead; at rank J < 3 (SVD, tolerance rcond) the null space has
+dimension >= 2 and the LP over it (minimax_lp.nullspace_lp_rates) is solved for the
+least-squares projection of b onto range(J): rare, so its ~1 ms does not matter.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
+from testbed.steering.minimax_lp import nullspace_lp_rates
+from testbed.steering.result import SteeringResult, status_string
+from testbed.steering.validation import checked_problem, number_in
+
+# Below |n| = NEAR_SINGULAR * |J|_F^3 the cofactor formulas lose > ~1e-12 relative accuracy.
+NEAR_SINGULAR = 1e-4
+# Null-vector components below this fraction of the largest are treated as exactly zero.
+ZERO_SLOPE = 1e-13
+_PAIRS = ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))
+
+
+def minimize_max_abs_on_line(x, n) -> list[float]:
+    """argmin over beta = x + t n of max_i |beta_i| (4 floats each, n != 0), in closed form.
+
+    v_ji = -v_ij and t_ij = t_ji, so the 12 ordered crossings reduce to the 6 pairs' |v_ij|.
+    """
+    w = [abs(n[0]), abs(n[1]), abs(n[2]), abs(n[3])]
+    a = [xi if ni >= 0.0 else -xi for xi, ni in zip(x, n)]  # s_i x_i
+    k = w.index(max(w))
+    floor = ZERO_SLOPE * w[k]
+    best_v, best_t = -1.0, -a[k] / w[k]  # the root of line k alone, if it has no partner
+    for i, j in _PAIRS:
+        wi, wj = w[i], w[j]
+        if wi > floor and wj > floor:
+            den = wi + wj
+            v = abs(wj * a[i] - wi * a[j]) / den
+            if v > best_v:
+                best_v, best_t = v, -(a[i] + a[j]) / den
+    t = best_t
+    return [x[0] + t * n[0], x[1] + t * n[1], x[2] + t * n[2], x[3] + t * n[3]]
+
+
+def cofactor_null_vector(rows) -> list[float]:
+    """n_i = (-1)^i det(J without column i): J n = 0 and |n|^2 = det(J J^T) (Cauchy-Binet)."""
+    r0, r1, r2 = rows
+    # 2x2 minors of rows 1-2 for column pairs (i, j), shared by the four 3x3 expansions.
+    m01, m02, m03 = r1[0] * r2[1] - r1[1] * r2[0], r1[0] * r2[2] - r1[2] * r2[0], r1[0] * r2[3] - r1[3] * r2[0]
+    m12, m13, m23 = r1[1] * r2[2] - r1[2] * r2[1], r1[1] * r2[3] - r1[3] * r2[1], r1[2] * r2[3] - r1[3] * r2[2]
+    return [r0[1] * m23 - r0[2] * m13 + r0[3] * m12, -(r0[0] * m23 - r0[2] * m03 + r0[3] * m02),
+            r0[0] * m13 - r0[1] * m03 + r0[3] * m01, -(r0[0] * m12 - r0[1] * m02 + r0[2] * m01)]
+
+
+def particular_solution(rows, b, n) -> list[float]:
+    """x with J x = b and x_k = 0, k = argmax |n_k| (eq. 22 with the best conditioned Y).
+
+    Y = J without column k has |det Y| = |n_k| > 0; Y^-1 = [y1 x y2, y2 x y0, y0 x y1]^T / det Y.
+    """
+    abs_n = [abs(v) for v in n]
+    k = abs_n.index(max(abs_n))
+    cols = [i for i in (0, 1, 2, 3) if i != k]
+    y0, y1, y2 = ([rows[0][i], rows[1][i], rows[2][i]] for i in cols)
+    c12 = (y1[1] * y2[2] - y1[2] * y2[1], y1[2] * y2[0] - y1[0] * y2[2], y1[0] * y2[1] - y1[1] * y2[0])
+    c20 = (y2[1] * y0[2] - y2[2] * y0[1], y2[2] * y0[0] - y2[0] * y0[2], y2[0] * y0[1] - y2[1] * y0[0])
+    c01 = (y0[1] * y1[2] - y0[2] * y1[1], y0[2] * y1[0] - y0[0] * y1[2], y0[0] * y1[1] - y0[1] * y1[0])
+    inv_det = 1.0 / (y0[0] * c12[0] + y0[1] * c12[1] + y0[2] * c12[2])
+    x = [0.0, 0.0, 0.0, 0.0]
+    for i, cross in zip(cols, (c12, c20, c01)):
+        x[i] = (b[0] * cross[0] + b[1] * cross[1] + b[2] * cross[2]) * inv_det
+    return x
+
+
+def minimax_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND) -> SteeringResult:
+    """Min-max gimbal rates (eq. 21 subject to 17), exactly and in microseconds, rate-limited.
+
+    Same optimum as minimax_lp_steering (tested to 1e-9 relative); the rate limit scales the
+    demand by k = beta_rate_max / min-max value, exact since the optimum is linear in H'.
+    """
+    rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
+    if rcond != DEFAULT_RCOND:  # skip the check on the hot path's default
+        rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
+    b = (hdot[0] / h, hdot[1] / h, hdot[2] / h)
+    n = cofactor_null_vector(rows)
+    measure = math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3])  # Cauchy-Binet
+    fro2 = sum(v * v for v in rows[0]) + sum(v * v for v in rows[1]) + sum(v * v for v in rows[2])
+    rank, lp_failed = 3, False
+    if measure > NEAR_SINGULAR * fro2 * math.sqrt(fro2):
+        beta = minimize_max_abs_on_line(particular_solution(rows, b, n), n)
+    else:
+        Jm, bv = np.array(rows), np.array(b)
+        svd = jacobian_svd(Jm, rcond)
+        rank, measure = svd.rank, svd.measure
+        if rank == 3:
+            beta = minimize_max_abs_on_line(min_norm_solution(svd, bv).tolist(),
+                                            svd.null_space[0].tolist())
+        else:
+            p = min_norm_solution(svd, bv)  # least squares: min-norm solution for projected b
+            lp = nullspace_lp_rates(p, svd.null_space)
+            lp_failed = lp is None
+            beta = (p if lp_failed else lp).tolist()
+    # Rate limit (eq. 4): the min-max optimum scales linearly with the demand.
+    peak = max(abs(beta[0]), abs(beta[1]), abs(beta[2]), abs(beta[3]))
+    scale = 1.0
+    if peak > beta_rate_max:
+        scale = beta_rate_max / peak
+        beta = [min(max(scale * v, -beta_rate_max), beta_rate_max) for v in beta]
+    delivered = [h * (r[0] * beta[0] + r[1] * beta[1] + r[2] * beta[2] + r[3] * beta[3])
+                 for r in rows]
+    return SteeringResult(np.array(beta), np.array(delivered), scale, measure, rank,
+                          status_string(scale < 1.0, rank < 3, lp_failed))

@@ -1,0 +1,29 @@
+"""Pseudo-inverse steering, SEEDS §004 eq. (20) corrected: beta' = J^T (J J^T)^-1 H'/h.
+
+The paper writes (L^T L)^-1 L^T, which is singular for a 3x4 L; the minimum-norm solution
+of the under-determined eq. (17) is J^T (J J^T)^-1 b. It is evaluated through the SVD so a
+singular J gives the minimum-norm least-squares rates instead of inf/nan.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
+from testbed.steering.result import SteeringResult, limited_result
+from testbed.steering.validation import checked_problem, number_in
+
+
+def pinv_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND) -> SteeringResult:
+    """Minimum-norm gimbal rates for h J beta' = H' (eq. 17, 20), rate-limited (eq. 4).
+
+    Rank < 3 (singular values <= rcond * sigma_max): the least-squares projection of H'
+    onto range(J) is delivered instead, still with the minimum-norm rates.
+    """
+    rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
+    rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
+    J = np.array(rows)
+    svd = jacobian_svd(J, rcond)
+    beta_rate = min_norm_solution(svd, np.array(hdot) / h)
+    return limited_result(J, h, beta_rate, beta_rate_max, svd.measure, svd.rank)
+

@@ -1,0 +1,27 @@
+"""The gimbal-rate limit shared by every law: scale the demand, keep its direction.
+
+Every law here is positively homogeneous in the demand H' (pinv, SR and GSR are linear;
+the min-max optimum of k H' is k times the optimum of H'), so the largest k in (0, 1] with
+max_i |k beta_rate_i| <= beta_rate_max is k = beta_rate_max / max_i |beta_rate_i|, and
+k * beta_rate is exactly the law's answer for the scaled demand k H' (SEEDS §004 eq. (4), (28)).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def rate_limit_factor(max_rate: float, beta_rate_max: float) -> float:
+    """k = min(1, beta_rate_max / max_rate): the demand scale that meets the limit (eq. 4)."""
+    return beta_rate_max / max_rate if max_rate > beta_rate_max else 1.0
+
+
+def apply_rate_limit(beta_rate: np.ndarray, beta_rate_max: float) -> tuple[np.ndarray, float]:
+    """(k * beta_rate, k) with k from rate_limit_factor; never exceeds the limit.
+
+    The clip only removes the last-ulp overshoot that k * max_rate may round to.
+    """
+    k = rate_limit_factor(float(np.max(np.abs(beta_rate))), beta_rate_max)
+    if k == 1.0:
+        return beta_rate, 1.0
+    return np.clip(beta_rate * k, -beta_rate_max, beta_rate_max), k
