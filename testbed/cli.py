@@ -7,6 +7,7 @@ line on stderr naming the field and the reason, no traceback, no output file).
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import sys
 import time
@@ -15,6 +16,10 @@ from pathlib import Path
 from testbed.errors import InputError
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+
+# Subcommands that live in their own modules: each has `add_parser(subparsers)`, which adds
+# its parser and sets `func=run`, and `run(args) -> exit status`.
+COMMAND_MODULES: tuple[str, ...] = ()
 
 
 class _Parser(argparse.ArgumentParser):
@@ -39,6 +44,8 @@ def _parser() -> argparse.ArgumentParser:
     inspect = sub.add_parser("inspect", help="read back a run's entities, time span, metrics and checks")
     inspect.add_argument("rrd")
     inspect.add_argument("--json", action="store_true")
+    for name in COMMAND_MODULES:
+        importlib.import_module(name).add_parser(sub)
     return parser
 
 
@@ -163,7 +170,8 @@ def _cmd_inspect(args) -> int:
 def main(argv: list[str] | None = None) -> int:
     try:
         args = _parser().parse_args(argv)
-        return {"run": _cmd_run, "check": _cmd_check, "list": _cmd_list, "inspect": _cmd_inspect}[args.command](args)
+        builtin = {"run": _cmd_run, "check": _cmd_check, "list": _cmd_list, "inspect": _cmd_inspect}
+        return builtin[args.command](args) if args.command in builtin else args.func(args)
     except InputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

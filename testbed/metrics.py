@@ -58,7 +58,20 @@ def evaluate_checks(scenario, values: dict[str, float]) -> list[dict]:
 
 # --- metrics every free-flying system has ---------------------------------------------------
 
-@metric("momentum_drift_rel")
+def _free_flying(scenario) -> bool:
+    from testbed import systems
+
+    return systems.is_free_flying(scenario)
+
+
+def _conserves_momentum(scenario) -> bool:
+    """A free body whose actuators are all internal (no ideal external torque)."""
+    from testbed import pipeline
+
+    return _free_flying(scenario) and pipeline.output_of("allocator", scenario.stages["allocator"][0]) != "body_torque"
+
+
+@metric("momentum_drift_rel", applies=_conserves_momentum)
 def momentum_drift_rel(run) -> float:
     """max |L(t) - L(0)| / L_scale of the total inertial angular momentum; L_scale = max(|L(0)|, stored rotor momentum)."""
     L = run.recorder["truth/angular_momentum_world"]
@@ -78,7 +91,7 @@ def max_omega_error_rad_s(run) -> float:
     return float(np.max(np.linalg.norm(run.recorder["reference/omega_error"], axis=1)))
 
 
-@metric("final_omega_rad_s")
+@metric("final_omega_rad_s", applies=lambda s: _free_flying(s))
 def final_omega_rad_s(run) -> float:
     """|w| of the bus at the end of the run [rad/s]."""
     return float(np.linalg.norm(run.recorder["truth/omega"][-1]))

@@ -71,6 +71,11 @@ def load_params(slot: str, config: dict | None, path: str):
     return name, schema.load(params_cls, config, path)
 
 
+def output_of(slot: str, name: str) -> str | None:
+    """The command key a registered stage produces (allocators: `body_torque`, `gimbal_rates`, ...)."""
+    return getattr(_REGISTRY[slot][name][1], "output", None)
+
+
 def build(slot: str, name: str, params, ctx: StageContext):
     _, cls = _REGISTRY[slot][name]
     return cls(params, ctx)

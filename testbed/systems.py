@@ -84,7 +84,8 @@ _CMG_KEYS = {"servo_natural_frequency": "servo_natural_frequency_rad_s",
 @dataclass(frozen=True)
 class System:
     params: type
-    make_plant: Callable  # (params, sim: SimConfig) -> Plant
+    make_plant: Callable      # (params, sim: SimConfig) -> Plant
+    free_flying: bool = True  # a free body with conserved total momentum when unactuated
 
 
 SYSTEMS: dict[str, System] = {
@@ -106,3 +107,7 @@ def load_params(config: dict, path: str):
 
 def make_plant(scenario):
     return SYSTEMS[scenario.system].make_plant(scenario.model, scenario.sim)
+
+
+def is_free_flying(scenario) -> bool:
+    return SYSTEMS[scenario.system].free_flying
