@@ -120,5 +120,5 @@ class Plant:
         boxes = [g for g in range(self.model.ngeom)
                  if self.model.geom_bodyid[g] == bus and self.model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX]
         half = self.model.geom_size[boxes[0]] if boxes else [0.5] * 3
-        scale = 1.0 / max(self.momentum_scale(), 1e-9)  # the longest arrow about 1 m
+        scale = 1.0 / max(self.momentum_scale(), 1e-9)  # per N m s: the longest arrow about 1
         return {"bus_half_size": list(map(float, half)), "momentum_scale": scale}

@@ -48,19 +48,30 @@ def _series_names(name: str, width: int) -> list[str]:
     return [f"{name}_{label}{suffix}" for label in labels]
 
 
-def _blueprint(recorder: Recorder, has_scene: bool) -> rrb.Blueprint:
+GROUP_ORDER = ["truth", "reference", "sensor", "estimator", "law", "allocator"]
+
+
+def _blueprint(recorder: Recorder, scene: dict | None) -> rrb.Blueprint:
     groups: dict[str, list[str]] = {}
-    for key in recorder.keys():
+    for key in sorted(recorder.keys(), key=lambda k: (GROUP_ORDER.index(k.split("/")[0])
+                                                     if k.split("/")[0] in GROUP_ORDER else 99, k)):
         groups.setdefault(key.split("/")[0], []).append(key)
     tabs = [rrb.Grid(*[rrb.TimeSeriesView(origin=f"/{key}", name=key) for key in keys], name=group)
             for group, keys in groups.items()]
     plots = rrb.Tabs(*tabs) if tabs else rrb.TextDocumentView(origin=f"/{RESULT_ENTITY}")
-    left = [rrb.Spatial3DView(origin="/world", name="attitude")] if has_scene else []
+    left = []
+    if scene is not None:
+        # Look at the bus from outside, from a (1, -1.2, 0.8) direction, z up.
+        eye = 4.0 * max(scene.get("bus_half_size", [0.5])) * np.array([1.0, -1.2, 0.8])
+        left.append(rrb.Spatial3DView(origin="/world", name="attitude and momentum",
+                                      eye_controls=rrb.EyeControls3D(position=eye, look_target=[0, 0, 0],
+                                                                     eye_up=[0, 0, 1])))
     left.append(rrb.TextDocumentView(origin="/run/summary", name="result"))
     return rrb.Blueprint(
-        rrb.Horizontal(rrb.Vertical(*left, row_shares=[3, 1][: len(left)]), plots, column_shares=[2, 3]),
-        rrb.TimePanel(state="expanded"),
-        collapse_panels=False,
+        rrb.Horizontal(rrb.Vertical(*left, row_shares=[3, 2][: len(left)]), plots, column_shares=[2, 3]),
+        rrb.BlueprintPanel(state="collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
+        rrb.TimePanel(state="collapsed"),
     )
 
 
@@ -76,7 +87,7 @@ def write_rrd(path: Path, recorder: Recorder, result: dict, scene: dict | None =
     partial = path.with_name(path.name + ".partial")
     rec = rr.RecordingStream(APP_ID, recording_id=str(uuid.uuid4()))
     rec.save(str(partial))
-    rec.send_blueprint(_blueprint(recorder, scene is not None))
+    rec.send_blueprint(_blueprint(recorder, scene))
     times = rr.TimeColumn(TIMELINE, duration=recorder.time)
     for key in recorder.keys():
         values = np.asarray(recorder[key], float)
@@ -98,7 +109,7 @@ def write_rrd(path: Path, recorder: Recorder, result: dict, scene: dict | None =
 
 def _write_scene(rec, recorder: Recorder, times, scene: dict) -> None:
     half = np.asarray(scene.get("bus_half_size", [0.5, 0.5, 0.5]), float)
-    rec.log("world/bus", rr.Boxes3D(half_sizes=[half], colors=[[170, 175, 190]], fill_mode="solid"), static=True)
+    rec.log("world/bus", rr.Boxes3D(half_sizes=[half], colors=[[170, 175, 190, 90]], fill_mode="solid"), static=True)
     rec.log("world/bus/axes", rr.Arrows3D(vectors=np.eye(3) * 1.5 * half.max(),
                                           colors=[[220, 60, 60], [60, 200, 60], [60, 60, 220]],
                                           labels=["x", "y", "z"]), static=True)
@@ -106,7 +117,8 @@ def _write_scene(rec, recorder: Recorder, times, scene: dict) -> None:
         q = recorder["truth/quat"]
         rec.send_columns("world/bus", indexes=[times],
                          columns=rr.Transform3D.columns(quaternion=q[:, [1, 2, 3, 0]]))  # Rerun: xyzw
-    scale = float(scene.get("momentum_scale", 1.0))
+    # Arrows about twice the bus size, so they stick out of the box.
+    scale = float(scene.get("momentum_scale", 1.0)) * 2.0 * float(half.max())
     for key, entity, color in (("truth/angular_momentum_world", "world/angular_momentum", [250, 200, 40]),
                                ("truth/cmg_momentum", "world/bus/cmg_momentum", [240, 110, 30])):
         if key in recorder:
@@ -117,10 +129,12 @@ def _write_scene(rec, recorder: Recorder, times, scene: dict) -> None:
 
 
 def _summary_markdown(result: dict) -> str:
-    lines = [f"# {result.get('scenario', '')}", "", f"status: **{result.get('status', '')}**", "",
-             "| check | value | limit | passed |", "|---|---|---|---|"]
-    for check in result.get("checks", []):
-        lines.append(f"| {check['name']} | {check['value']:.4g} | {check['limit']} | {check['passed']} |")
+    lines = [f"# {result.get('scenario', '')}", "", f"status: **{result.get('status', '')}**", ""]
+    if result.get("error"):
+        lines += [f"error: {result['error']}", ""]
+    if result.get("checks"):
+        lines += ["| check | value | limit | passed |", "|---|---|---|---|"]
+        lines += [f"| {c['name']} | {c['value']:.4g} | {c['limit']} | {c['passed']} |" for c in result["checks"]]
     lines += ["", "| metric | value |", "|---|---|"]
     lines += [f"| {k} | {v:.6g} |" for k, v in result.get("metrics", {}).items()]
     return "\n".join(lines)
