@@ -1,6 +1,6 @@
 # The README's two commands. Each sets up .venv (once, re-done when pyproject.toml changes).
 PY := .venv/bin/python
-FLAGSHIP ?= cmg_open_loop
+FLAGSHIP ?= lebedev_spinup_cmg
 
 .PHONY: run test bench
 run: .venv/.installed
@@ -12,6 +12,7 @@ test: .venv/.installed
 bench: .venv/.installed
 	$(PY) bench/bench_pipeline.py
 	$(PY) bench/bench_minimax.py
+	$(PY) bench/bench_sweep.py
 
 .venv/.installed: pyproject.toml
 	python3 -m venv .venv

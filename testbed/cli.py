@@ -19,7 +19,7 @@ EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
 # Subcommands that live in their own modules: each has `add_parser(subparsers)`, which adds
 # its parser and sets `func=run`, and `run(args) -> exit status`.
-COMMAND_MODULES: tuple[str, ...] = ()
+COMMAND_MODULES: tuple[str, ...] = ("testbed.envelope_cli", "testbed.sweep_cli")
 
 
 class _Parser(argparse.ArgumentParser):

@@ -50,5 +50,11 @@ class CmgPlant(Plant):
     def internal_momentum_body(self) -> np.ndarray:
         return self.domain.internal_momentum_body(self.data)
 
+    def momentum_scale(self) -> float:
+        """max(|L|, |H|, sum_i |h_i|): the stored rotor momentum sum_i Js_i |Omega_i| keeps the
+        scale meaningful for a zero-momentum gimbal set (H = 0, e.g. (45, -45, -45, 45) deg)."""
+        stored = float(np.sum(self.geometry.spin_inertia * np.abs(self.domain.rotor_rates(self.data))))
+        return max(super().momentum_scale(), stored)
+
     def description(self):
         return self.geometry

@@ -154,8 +154,18 @@ def observer_gain(inertia, spin_rate, sensor_axis, poles):
     (det T = -det W, so l exists iff the pair (A, C) is observable.)
     """
     check_observable(inertia, spin_rate, sensor_axis)
-    mu = check_observer_poles(poles)
     _, A = lebedev_matrices(inertia, spin_rate)
+    return ackermann_gain(A, sensor_axis, poles)
+
+
+def ackermann_gain(A, sensor_axis, poles):
+    """l with eig(A - l C) = poles for any observable 3x3 A and C = p' (the T^-1 L construction).
+
+    The same formulas as `observer_gain` (Lebedev 1976, text after eq. 4.7) with A general;
+    raises InputError("sensor.axis", ...) when det T = -det W vanishes (pair unobservable).
+    """
+    mu = check_observer_poles(poles)
+    A = np.asarray(A, dtype=float)
     c = np.asarray(sensor_axis, dtype=float)
     alpha = np.poly(A).real  # (1, alpha1, alpha2, alpha3)
     beta = np.poly(mu).real  # (1, beta1, beta2, beta3)
@@ -164,8 +174,24 @@ def observer_gain(inertia, spin_rate, sensor_axis, poles):
     t2 = At @ c + alpha[1] * c
     t3 = c
     T = np.vstack([t1, t2, t3])
+    scale = max(np.abs(At @ At @ c).max(), 1e-300) * max(np.abs(At @ c).max(), 1e-300)
+    if abs(np.linalg.det(T)) <= _REL_ZERO * scale:
+        raise InputError("sensor.axis", f"unobservable: det W = {np.linalg.det(T):.3g} for this A and p")
     L = np.array([beta[3] - alpha[3], beta[2] - alpha[2], beta[1] - alpha[1]])
     return np.linalg.solve(T, L)
+
+
+def gyrostat_error_matrix(inertia, spin_rate, momentum):
+    """A + I^-1 [H x]: the observer error dynamics when internal momentum H is present.
+
+    A CMG cluster holding H that compensates w x H with the *estimate* w_hat leaves the body
+    a torque (w_hat - w) x H = H x e (e = x - z) that eq. 4.6 does not model, so the error obeys
+    e' = (A + I^-1 [H x] - l C) e + ... (our extension: the paper's body has external torques).
+    """
+    _, A = lebedev_matrices(inertia, spin_rate)
+    h = np.asarray(momentum, dtype=float)
+    cross = np.array([[0.0, -h[2], h[1]], [h[2], 0.0, -h[0]], [-h[1], h[0], 0.0]])
+    return A + cross / _as_inertia(inertia)[:, None]
 
 
 def lebedev_torque(inertia, k, z):
@@ -195,11 +221,14 @@ class LebedevObserver:
     p . w [rad/s]; the innovation uses y_dev = y - gamma Omega, since y = C x + gamma Omega.
     """
 
-    def __init__(self, inertia, spin_rate, sensor_axis, poles, max_substep=0.05):
+    def __init__(self, inertia, spin_rate, sensor_axis, poles, max_substep=0.05, design_momentum=None):
         self.inertia = _as_inertia(inertia)
         self.spin_rate = float(spin_rate)
         self.C = _as_axis(sensor_axis)
         self.l = observer_gain(self.inertia, self.spin_rate, self.C, poles)
+        # Closed-loop gain: the paper's l, or l for A + I^-1 [H x] when the actuators hold H.
+        self.l_closed = self.l if design_momentum is None else ackermann_gain(
+            gyrostat_error_matrix(self.inertia, self.spin_rate, design_momentum), self.C, poles)
         self.a, self.A = lebedev_matrices(self.inertia, self.spin_rate)
         if not max_substep > 0:
             raise InputError("observer.max_substep", f"must be > 0, got {max_substep}")
@@ -211,7 +240,7 @@ class LebedevObserver:
         self.z = np.zeros(3) if z0 is None else np.asarray(z0, dtype=float).copy()
 
     def _rhs(self, z, y_dev, u, nonlinear):
-        dz = self.A @ z + self.l * (y_dev - self.C @ z)
+        dz = self.A @ z + (self.l_closed if nonlinear else self.l) * (y_dev - self.C @ z)
         if nonlinear:
             dz = dz + lebedev_nonlinearity(self.a, z) + u
         return dz

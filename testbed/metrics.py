@@ -111,3 +111,10 @@ def gimbal_rate_error_rel(run) -> float:
     keep = run.recorder.time[1:] > 0.1
     scale = np.maximum(np.nanmax(np.abs(command), axis=0), 1e-12)
     return float(np.nanmax(np.abs(rates[keep] - command[keep]) / scale))
+
+from testbed import metrics_steering  # noqa: E402,F401
+from testbed import metrics_lebedev  # noqa: E402,F401
+
+# issue 5: planar AKOR figures measured in simulation
+from testbed import metrics_planar  # noqa: E402,F401
+from testbed import metrics_gyrostat  # noqa: E402,F401

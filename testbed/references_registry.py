@@ -102,3 +102,13 @@ def _reduced_cmg(plant, params):
                                  recorder["truth/rotor_rate"], omega0, times, rtol=params.rtol, atol=1e-14)
 
     return evaluate
+
+
+@reference("gyrostat_leader", systems=("gyrostat_pair",))
+def _gyrostat_leader(plant, params):
+    """The leader of seed 003, eq. (1) with constant lambda: A w' + w x (A w + lambda) = 0
+    (solve_ivp); A = its locked inertia from mj_fullM, lambda = J x rotor speeds at t = 0."""
+    from testbed.references.gyrostat_ode import gyrostat_omega
+
+    inertia, moment, omega0 = plant.locked_inertia(), plant.domain.moment("leader"), plant.omega()
+    return lambda times, recorder: gyrostat_omega(inertia, moment, omega0, times - times[0])

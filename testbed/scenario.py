@@ -10,6 +10,7 @@ Layout (every key optional unless marked; units are in the key names, SI and rad
     pipeline: {sensor|estimator|law|allocator: {type: NAME, ...params}}   (testbed.pipeline)
     reference: {type: NAME, ...}    # an analytic model the truth is compared with
     checks: {METRIC: {max: X} | {min: X}}
+    sweep: {grid: {PATH: [values]}, random: {PATH: {uniform: [lo, hi]}}, samples, seed}   (testbed.sweep)
 
 `load_scenario(path, overrides)` applies `--set key.path=value` overrides to the raw mapping
 first, so they are validated exactly like the file.
@@ -102,6 +103,7 @@ class _RawScenario:
     pipeline: dict[str, Any] = param({})
     reference: dict[str, Any] | None = None
     checks: dict[str, CheckLimit] = param({})
+    sweep: dict[str, Any] | None = None     # testbed.sweep expands it; `run` ignores it
 
 
 @dataclass
@@ -126,6 +128,10 @@ def parse(data: dict, source: str = "") -> Scenario:
     from testbed import references_registry, systems
 
     raw = schema.load(_RawScenario, data)
+    if raw.sweep is not None:  # the block itself is checked here; its cases by testbed.sweep
+        from testbed import sweep
+
+        sweep.load_spec(raw.sweep)
     system_name, model = systems.load_params(raw.model, "model")
     unknown = set(raw.pipeline) - set(pipeline.SLOTS)
     if unknown:

@@ -14,6 +14,7 @@ import numpy as np
 
 from testbed import schema
 from testbed.domains import cmg_rhombus, gyrostat, satellite
+from testbed.domains import planar
 from testbed.errors import InputError
 from testbed.physical_checks import check_principal_inertia
 from testbed.schema import join, param
@@ -95,6 +96,23 @@ SYSTEMS: dict[str, System] = {
         gyrostat.GyrostatParams,
         lambda p, sim: gyrostat.GyrostatPlant(gyrostat.build(p, sim.dt_s, sim.integrator), p)),
 }
+
+
+def _planar_plant(p, sim):
+    from testbed.planar_plant import PlanarPlant
+
+    return PlanarPlant(p, sim)
+
+
+# issue 5: hinge-mounted planar rig (Avdeev & Kaptsova 2016); no free body, no momentum metrics
+SYSTEMS["planar"] = System(planar.PlanarParams, _planar_plant, free_flying=False)
+
+# issue 6: gyrostats of seeds 002 (variable structure, program motion) and 003 (leader/follower)
+from testbed import gyrostat_pair_plant, variable_gyrostat_plant  # noqa: E402
+
+SYSTEMS["gyrostat_variable"] = System(variable_gyrostat_plant.VariableGyrostatScenarioParams,
+                                      variable_gyrostat_plant.make_plant)
+SYSTEMS["gyrostat_pair"] = System(gyrostat_pair_plant.GyrostatPairScenarioParams, gyrostat_pair_plant.make_plant)
 
 
 def load_params(config: dict, path: str):

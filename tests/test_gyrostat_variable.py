@@ -62,7 +62,7 @@ def test_common_centre_of_mass_is_O(model):
         data.qpos[model.joint("rotor_hinge").qposadr[0]] = t
         mujoco.mj_kinematics(model, data)
         mujoco.mj_comPos(model, data)
-        np.testing.assert_allclose(data.subtree_com[model.body("carrier").id], data.xpos[model.body("carrier").id], atol=1e-15)
+        np.testing.assert_allclose(data.subtree_com[model.body("bus").id], data.xpos[model.body("bus").id], atol=1e-15)
     # T1 = cylinder + rod: its centre of mass sits at l1 = 0.3 m from O (paper: 500 * 0.3 = 300 * 0.5).
     assert gv.carrier_com_offset(PARAMS) == pytest.approx(0.3, rel=1e-14)
     assert gv.cylinder_offset(PARAMS) == pytest.approx(150.0 / 495.0, rel=1e-14)
@@ -71,7 +71,7 @@ def test_common_centre_of_mass_is_O(model):
 @pytest.mark.parametrize("t", [0.0, 3.0, 7.5, 12.5, 15.708, 25.0])
 def test_carrier_inertia_about_O_matches_paper(model, t):
     alpha = 0.1 * t
-    inertia = _inertia_from_model_fields(model, ("carrier", "rod"), alpha)
+    inertia = _inertia_from_model_fields(model, ("bus", "rod"), alpha)
     # Bezglasny & Khudyakova, worked example: I1x, I1y, I1z about O (carrier axes).
     paper = np.array([210 + ROD * np.cos(alpha) ** 2, 210 + ROD, 247.5 + ROD * np.sin(alpha) ** 2])
     np.testing.assert_allclose(np.diag(inertia), paper, rtol=5e-3)
@@ -87,7 +87,7 @@ def test_carrier_inertia_about_O_matches_paper(model, t):
     data = mujoco.MjData(model)
     data.qpos[model.joint("rod_hinge").qposadr[0]] = alpha
     mujoco.mj_kinematics(model, data)
-    np.testing.assert_allclose(gv.inertia_about_point(model, data, ("carrier", "rod"), "carrier"), inertia, atol=1e-11)
+    np.testing.assert_allclose(gv.inertia_about_point(model, data, ("bus", "rod"), "bus"), inertia, atol=1e-11)
 
 
 @pytest.mark.parametrize("sigma", [0.0, 1.0, 2.5])
@@ -111,7 +111,7 @@ def test_prescribed_motion_is_tracked_and_momentum_conserved(model):
         for name, err in gyro.tracking_error().items():
             worst[name] = max(worst[name], abs(err))
     assert gyro.data.time == pytest.approx(10.0)
-    # Measured: rod 1.8e-5 rad, rotor 1.7e-6 rad (wn = 50 rad/s, midpoint references).
+    # Measured: rod 1.8e-5 rad, rotor 1.1e-7 rad (wn = 50 rad/s, integrated reference angles).
     assert worst["rod"] < 5e-5 and worst["rotor"] < 5e-6
     # Servos are internal torques: total momentum about the CoM is conserved (RK4).
     drift = np.linalg.norm(gyro.angular_momentum_world() - momentum0) / np.linalg.norm(momentum0)

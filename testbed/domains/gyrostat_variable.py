@@ -3,8 +3,8 @@
 Carrier T1 (a solid cylinder plus a thin rod turning about the common centre of mass O) on a
 free joint, and a coaxial rotor T2 (solid elliptic cylinder) turning about the carrier's z
 axis. Both internal motions are prescribed, alpha(t) = rod_rate t and sigma(t) = rotor_rate t
-(paper: 0.1 t and t), and followed by stiff PD servos (a <position> plus a <velocity>
-actuator per hinge).
+(paper: 0.1 t and t), and followed by stiff PD servos (an <intvelocity> plus a <velocity>
+actuator per hinge, see models/gyrostat_variable.xml).
 
 Placement (paper, section "Постановка задачи": O1 O = l1, O2 O = l2, m1 l1 = m2 l2): the
 rod's centre is hinged at O, so T1's mass is cylinder + rod and the cylinder's centre must
@@ -23,6 +23,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from testbed.domains.satellite import BUS_BODY, FreeBus
 from testbed.errors import InputError
 from testbed.schema import param
 
@@ -94,7 +95,7 @@ def build(params: VariableGyrostatParams, dt: float = 1e-3, integrator: str = "R
     spec.option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}")
 
     d = cylinder_offset(params)
-    carrier = spec.body("carrier")
+    carrier = spec.body(BUS_BODY)
     carrier.mass = params.carrier_mass_kg
     carrier.ipos = [0.0, 0.0, -d]
     carrier.inertia = cylinder_inertia(params.carrier_mass_kg, params.carrier_radius_m, params.carrier_height_m)
@@ -125,7 +126,8 @@ def build(params: VariableGyrostatParams, dt: float = 1e-3, integrator: str = "R
         raise InputError("model.servo_bandwidth_rad_s",
                          f"servo bandwidth x time step = {wn * dt:g} must stay below 0.5 for RK4")
     for name, inertia in (("rod", rod_inertia[1]), ("rotor", rotor_inertia[2])):
-        spec.actuator(f"{name}_angle").set_to_position(kp=inertia * wn**2)
+        spec.actuator(f"{name}_angle").set_to_intvelocity(kp=inertia * wn**2, kv=0.0)
+        spec.actuator(f"{name}_angle").actrange = [-1e9, 1e9]
         spec.actuator(f"{name}_rate").set_to_velocity(kv=2 * zeta * inertia * wn)
     return spec.compile()
 
@@ -136,19 +138,21 @@ def prescribed(t: float, params: VariableGyrostatParams) -> dict[str, float]:
             "rotor_angle": params.rotor_rate_rad_s * t, "rotor_rate": params.rotor_rate_rad_s}
 
 
-class VariableGyrostat:
-    """A compiled model plus data; knows the carrier's free joint, hinges and servos by name."""
+class VariableGyrostat(FreeBus):
+    """A compiled model plus data; knows the carrier's free joint, hinges and servos by name.
+
+    The carrier is the model's body "bus" (FreeBus: free joint, torque motors at O), so the
+    testbed's Plant reads it like any spacecraft bus; `data` may be rebound to a Plant's."""
 
     def __init__(self, model: mujoco.MjModel, params: VariableGyrostatParams):
-        self.model = model
+        super().__init__(model)
         self.data = mujoco.MjData(model)
         self.params = params
-        free = model.joint("carrier_free")
-        self._free_qpos, self._free_dof = int(free.qposadr[0]), int(free.dofadr[0])
+        self._free_qpos, self._free_dof = self.qpos_adr, self.qvel_adr
         self._hinge_qpos = {n: int(model.joint(f"{n}_hinge").qposadr[0]) for n in ("rod", "rotor")}
         self._hinge_dof = {n: int(model.joint(f"{n}_hinge").dofadr[0]) for n in ("rod", "rotor")}
         self._act = {n: int(model.actuator(n).id) for n in ACTUATORS}
-        self._carrier = int(model.body("carrier").id)
+        self._carrier = int(self.bus_body_id)
         self._badqacc = mujoco.mjtWarning.mjWARN_BADQACC
 
     def reset(self, omega_body, quat=(1.0, 0.0, 0.0, 0.0)) -> None:
@@ -161,21 +165,35 @@ class VariableGyrostat:
         ref = prescribed(0.0, self.params)
         for n in ("rod", "rotor"):
             self.data.qvel[self._hinge_dof[n]] = ref[f"{n}_rate"]
+            self.data.act[self.model.actuator_actadr[self._act[f"{n}_angle"]]] = ref[f"{n}_angle"]
+        self.set_servo_references(0.0)
         mujoco.mj_forward(self.model, self.data)
 
     def step(self, nstep: int = 1) -> None:
-        """Advance `nstep` steps, each with servo references at the step's midpoint.
-
-        The controls are held over a step; referencing the midpoint t + dt/2 removes the
-        dt/2 lag a ramp would otherwise show."""
+        """Advance `nstep` steps, each with the servo controls (reference rates) at the step's
+        midpoint; the reference angles are the servos' activations, integrated inside the step."""
         dt = self.model.opt.timestep
         for _ in range(nstep):
-            ref = prescribed(self.data.time + dt / 2, self.params)
-            for n, i in self._act.items():
-                self.data.ctrl[i] = ref[n]
+            self.set_servo_references(self.data.time + dt / 2)
             mujoco.mj_step(self.model, self.data)
         if self.data.warning[self._badqacc].number or not np.isfinite(self.data.qvel).all():
             raise RuntimeError(f"simulation diverged at t = {self.data.time:.6g} s")
+
+    def set_servo_references(self, t: float) -> None:
+        """Hinge servo controls at time t: both actuators of a hinge take the prescribed rate
+        (the <intvelocity> one integrates it into the reference angle)."""
+        ref = prescribed(t, self.params)
+        for n in ("rod", "rotor"):
+            self.data.ctrl[self._act[f"{n}_angle"]] = ref[f"{n}_rate"]
+            self.data.ctrl[self._act[f"{n}_rate"]] = ref[f"{n}_rate"]
+
+    def hinge_angles(self) -> np.ndarray:
+        """(alpha, sigma): rod and rotor hinge angles [rad]."""
+        return np.array([self.data.qpos[self._hinge_qpos[n]] for n in ("rod", "rotor")])
+
+    def hinge_rates(self) -> np.ndarray:
+        """(alpha', sigma') [rad/s]."""
+        return np.array([self.data.qvel[self._hinge_dof[n]] for n in ("rod", "rotor")])
 
     def tracking_error(self) -> dict[str, float]:
         """Hinge angle minus prescribed angle, rad, at the current time."""
@@ -199,7 +217,7 @@ class VariableGyrostat:
 
     def carrier_inertia(self) -> np.ndarray:
         """I1 about O in carrier axes: cylinder + rod at the current rod angle (paper's I1x,y,z)."""
-        return inertia_about_point(self.model, self.data, ("carrier", "rod"), "carrier")
+        return inertia_about_point(self.model, self.data, (BUS_BODY, "rod"), BUS_BODY)
 
     def rotor_inertia(self) -> np.ndarray:
         """I2 about O in the rotor's axes x2 y2 z2 (paper's I2x,y,z)."""

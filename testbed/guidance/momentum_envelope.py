@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from testbed.domains.cmg_rhombus import rhombus_axes
 from testbed.errors import InputError
 
 # Directions u closer than this (|g_i × u|) to a gimbal axis are skipped (see module doc).
@@ -38,14 +39,9 @@ EXTERNAL = (1, 1, 1, 1)
 
 def rhombus_geometry(alpha):
     """(e, s, g) of the rhombus cluster (SEEDS §004 eq. 15): β = 0 directions e (4, 3),
-    signs s (4,), gimbal axes g_i = s_i (e_i × z) (4, 3)."""
-    alpha = _finite("cmg.alpha_rad", alpha)
-    c, s_ = np.cos(alpha), np.sin(alpha)
-    e1, e2 = np.array([c, s_, 0.0]), np.array([-c, s_, 0.0])
-    e = np.array([e1, e2, -e1, -e2])
-    s = np.array([1.0, 1.0, -1.0, -1.0])
-    g = s[:, None] * np.cross(e, [0.0, 0.0, 1.0])
-    return e, s, g
+    signs s (4,), gimbal axes g_i = s_i (e_i × z) (4, 3); from the domain's rhombus_axes."""
+    e, g, sz = rhombus_axes(_finite("cmg.alpha_rad", alpha))
+    return e, sz[:, 2].copy(), g
 
 
 def rhombus_gimbal_axes(alpha) -> np.ndarray:

@@ -74,10 +74,14 @@ class TrackingLaw:
 
     def __call__(self, t, q_est, w_est) -> np.ndarray:
         """Wanted body torque M [N m] for the estimated attitude q_est and body rate w_est."""
+        return self.torque_and_errors(t, q_est, w_est)[0]
+
+    def torque_and_errors(self, t, q_est, w_est):
+        """(M, δq, δω): the wanted torque and the errors it acts on, from one program evaluation."""
         dq, dw, w_d, acc_p = self._errors(t, q_est, w_est)
         w = dw + w_d
         acc_d = acc_p - np.cross(dw, w_d)
-        return self.inertia @ acc_d + np.cross(w, self.inertia @ w) + self._pd(dq, dw)
+        return self.inertia @ acc_d + np.cross(w, self.inertia @ w) + self._pd(dq, dw), dq, dw
 
 
 def _number(field: str, value) -> float:

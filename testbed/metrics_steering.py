@@ -1,0 +1,104 @@
+"""Metrics of CMG steering runs (issue 3, SEEDS §004): attitude reached, gimbal rates, singularity.
+
+They apply to `cmg_rhombus` runs whose allocator is a steering law (testbed.steering); the
+attitude metrics also need the `slew` law. Signals are read at the trace samples: a scenario
+that wants every control step counted (e.g. the minimum singularity measure) sets
+trace_period_s = control_period_s. The last trace row holds only the final truth (no command
+was computed there), so command signals are reduced with nan-aware functions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from testbed.metrics import metric
+from testbed.quaternion import quat_angle, quat_conj, quat_mul
+from testbed.steering import STEERING_LAWS
+
+
+def _steered(scenario) -> bool:
+    return scenario.system == "cmg_rhombus" and scenario.stages["allocator"][0] in STEERING_LAWS
+
+
+def _slewed(scenario) -> bool:
+    return _steered(scenario) and scenario.stages["law"][0] == "slew"
+
+
+def _torque_demanded(scenario) -> bool:
+    return _steered(scenario) and scenario.stages["law"][0] != "none"
+
+
+def _rate_max(run) -> float:
+    """The allocator's gimbal-rate limit b'max [rad/s]."""
+    return float(np.radians(run.scenario.stages["allocator"][1].beta_rate_max_deg_s))
+
+
+@metric("final_attitude_error_deg", applies=_slewed)
+def final_attitude_error_deg(run) -> float:
+    """Angle between the final bus attitude and the program attitude at that time (the target) [deg]."""
+    from testbed.stages.slew import build_program
+
+    params = run.scenario.stages["law"][1]
+    program = build_program(params, run.scenario.initial.quat)
+    t_end = float(run.recorder.time[-1])
+    target = program.attitude(t_end - params.start_s)
+    error = quat_mul(quat_conj(target), run.recorder["truth/quat"][-1])
+    return float(np.degrees(quat_angle(error)))
+
+
+@metric("max_tracking_error_deg", applies=_slewed)
+def max_tracking_error_deg(run) -> float:
+    """max over control samples of the law's attitude error angle |Λ*~ ∘ q| [deg]."""
+    return float(np.degrees(np.nanmax(run.recorder["law/error_angle"])))
+
+
+@metric("peak_gimbal_rate_deg_s", applies=_steered)
+def peak_gimbal_rate_deg_s(run) -> float:
+    """max_t max_i |b'_i| of the commanded gimbal rates [deg/s]."""
+    return float(np.degrees(np.nanmax(np.abs(run.recorder["allocator/gimbal_rates"]))))
+
+
+@metric("peak_gimbal_rate_measured_deg_s", applies=_steered)
+def peak_gimbal_rate_measured_deg_s(run) -> float:
+    """max_t max_i |b'_i| of the true gimbal rates (servo output) [deg/s]."""
+    return float(np.degrees(np.max(np.abs(run.recorder["truth/gimbal_rate"]))))
+
+
+@metric("rate_limit_violations", applies=_steered)
+def rate_limit_violations(run) -> float:
+    """Count of commanded |b'_i| > b'max over samples and gimbals (SEEDS §004 eq. 4; must be 0)."""
+    rates = np.abs(run.recorder["allocator/gimbal_rates"])
+    return float(np.count_nonzero(rates[np.isfinite(rates)] > _rate_max(run)))
+
+
+@metric("min_singularity_measure", applies=_steered)
+def min_singularity_measure(run) -> float:
+    """min over control samples of m = sqrt(det(J J^T)) of the unit Jacobian (0: singular; 1.54 at most)."""
+    return float(np.nanmin(run.recorder["allocator/singularity"]))
+
+
+@metric("min_scale", applies=_steered)
+def min_scale(run) -> float:
+    """Smallest factor k the rate limit applied to the demand (1: never limited)."""
+    return float(np.nanmin(run.recorder["allocator/scale"]))
+
+
+def _torque_error(run) -> np.ndarray:
+    wanted, delivered = run.recorder["law/torque"], run.recorder["allocator/torque_delivered"]
+    keep = np.all(np.isfinite(wanted), axis=1) & np.all(np.isfinite(delivered), axis=1)
+    return wanted[keep], delivered[keep]
+
+
+@metric("torque_error_rms", applies=_torque_demanded)
+def torque_error_rms(run) -> float:
+    """RMS over control samples of |M_wanted - M_delivered| (law torque vs what the command produces) [N m]."""
+    wanted, delivered = _torque_error(run)
+    return float(np.sqrt(np.mean(np.sum((wanted - delivered) ** 2, axis=1))))
+
+
+@metric("torque_error_rel", applies=_torque_demanded)
+def torque_error_rel(run) -> float:
+    """torque_error_rms / RMS |M_wanted|: the fraction of the wanted torque not delivered."""
+    wanted, delivered = _torque_error(run)
+    rms = np.sqrt(np.mean(np.sum(wanted**2, axis=1)))
+    return float(np.sqrt(np.mean(np.sum((wanted - delivered) ** 2, axis=1))) / max(rms, 1e-300))

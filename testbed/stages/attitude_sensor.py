@@ -1,0 +1,67 @@
+"""Ideal attitude sensing: a star tracker (attitude) and a 3-axis rate gyro (body rate).
+
+`ideal_attitude` (sensor) reads the true bus attitude q and body rate w every control tick.
+Optional white noise: the star tracker reports q ∘ exp(δθ/2), δθ ~ N(0, σ_q² I) a small
+body-frame rotation [rad] (so the error angle is about |δθ|), the gyro w + N(0, σ_w² I).
+The same seed gives the same samples bit for bit. `attitude` (estimator) passes the
+measured quat and omega through unchanged: with noise off, the law sees the truth.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from testbed.errors import InputError
+from testbed.pipeline import stage
+from testbed.quaternion import quat_mul
+from testbed.schema import param
+
+
+@dataclass(kw_only=True)
+class IdealAttitudeParams:
+    attitude_noise_rad: float = param(0.0, ge=0, doc="star-tracker noise, std of each small-angle component")
+    rate_noise_rad_s: float = param(0.0, ge=0, doc="gyro white noise, std per axis and sample")
+    seed: int = param(0, ge=0, doc="noise seed")
+
+
+def small_rotation(theta: np.ndarray) -> np.ndarray:
+    """Unit quaternion exp(θ/2) = (cos |θ|/2, sin(|θ|/2) θ/|θ|) of a rotation vector θ [rad]."""
+    angle = float(np.linalg.norm(theta))
+    if angle == 0.0:
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    return np.concatenate([[np.cos(angle / 2)], np.sin(angle / 2) * theta / angle])
+
+
+@stage("sensor", "ideal_attitude", IdealAttitudeParams)
+class IdealAttitude:
+    def __init__(self, params: IdealAttitudeParams, ctx):
+        self.params = params
+        self.rng = np.random.default_rng(params.seed)
+
+    def measure(self, t, plant):
+        p = self.params
+        quat, omega = plant.quat(), plant.omega()
+        if p.attitude_noise_rad:
+            quat = quat_mul(quat, small_rotation(p.attitude_noise_rad * self.rng.standard_normal(3)))
+        if p.rate_noise_rad_s:
+            omega = omega + p.rate_noise_rad_s * self.rng.standard_normal(3)
+        return {"quat": quat, "omega": omega}
+
+
+ATTITUDE_SENSORS = ("ideal_attitude",)
+
+
+@stage("estimator", "attitude")
+class AttitudePassThrough:
+    """Estimate = measurement: quat and omega from the attitude sensor, unchanged."""
+
+    def __init__(self, params, ctx):
+        sensor = ctx.scenario.stages["sensor"][0] if ctx.scenario is not None else "ideal_attitude"
+        if sensor not in ATTITUDE_SENSORS:
+            raise InputError("pipeline.estimator.type", f"attitude needs a sensor that measures quat and "
+                             f"omega ({', '.join(ATTITUDE_SENSORS)}), got sensor {sensor!r}")
+
+    def estimate(self, t, measurement, command):
+        return {"quat": measurement["quat"], "omega": measurement["omega"]}

@@ -1,0 +1,188 @@
+"""Lebedev (1976) spin control from ONE rate gyro: the observer and the control law as stages.
+
+- estimator `lebedev`: the observer z' = A z + l (y - C z) + F(z) + u (eq. 4.6), gain
+  l = T^-1 L placing eig(A - l C) at `poles_per_s`, preceded by the start-up phase of
+  section 3: for t < startup_s the body is uncontrolled and the *linear* observer
+  z' = A z + l (y - C z) (eq. 3.1) runs from z = 0; its state then initialises (4.6).
+- law `lebedev`: M_i = I_i k_i z_i (eq. 4.7) with z = w_hat - (0, 0, Omega) (eq. 4.1), zero
+  torque while the estimator reports the loop open. Task 1 spins the body up to Omega about
+  its major axis z; Task 2 (section 5) detumbles it "through" an admissible residual spin
+  Omega* (the same law built with Omega = Omega*).
+
+Design data flow: the law owns the task (Omega, gains); the estimator reads Omega from it and
+the sensing axis p (C = p', eq. 4.3) from the `rate_gyro` sensor's parameters, and checks
+observability (eq. 4.4-4.5) before the run. Causality: at tick k the observer has integrated
+over [t_(k-1), t_k] with the gyro sample y_(k-1) and the input u_(k-1) = M / I that were held
+over that interval (u from the torque the allocator reports delivered), so z(t_k) uses no
+information from t_k or later.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from testbed import pipeline
+from testbed.errors import InputError
+from testbed.lebedev_observer import LebedevObserver, check_gains, check_observer_poles, lebedev_torque
+from testbed.pipeline import stage
+from testbed.schema import join, param
+
+# Relative size of products of inertia the principal-axis model (eq. 1.2) may ignore.
+PRINCIPAL_AXIS_TOLERANCE = 1e-3
+
+
+@contextlib.contextmanager
+def scenario_fields(names: dict[str, str]):
+    """Re-raise the math module's InputErrors under the scenario's dotted field paths."""
+    try:
+        yield
+    except InputError as exc:
+        raise InputError(names.get(exc.field, exc.field), exc.reason) from None
+
+
+def principal_moments(inertia: np.ndarray, field: str = "model.inertia_kg_m2") -> np.ndarray:
+    """(Ix, Iy, Iz) of a 3x3 inertia whose body axes are principal (Lebedev 1976, eq. 1.2)."""
+    inertia = np.asarray(inertia, float)
+    moments = np.diag(inertia).copy()
+    products = np.abs(inertia - np.diag(moments)).max()
+    if products > PRINCIPAL_AXIS_TOLERANCE * moments.min():
+        raise InputError(field, f"body axes are not principal (largest product of inertia {products:.3g} kg m^2); "
+                                "the Lebedev model needs Euler's equations in principal axes")
+    return moments
+
+
+# --- the control law (eq. 4.7) -----------------------------------------------------------
+
+@dataclass(kw_only=True)
+class LebedevLawParams:
+    task: Literal["spin", "detumble"] = param("spin", doc="Task 1 spin-up / Task 2 detumble (section 5)")
+    spin_rate_deg_s: float | None = param(None, doc="task spin: the wanted spin Omega about z")
+    residual_rate_deg_s: float | None = param(None, gt=0, doc="task detumble: admissible residual spin Omega*")
+    gains_per_s: list[float] = param(length=3, doc="k1, k2, k3 of M_i = I_i k_i z_i; A + K must be stable")
+
+    def validate(self, path: str) -> None:
+        wanted, other = (("spin_rate_deg_s", "residual_rate_deg_s") if self.task == "spin"
+                         else ("residual_rate_deg_s", "spin_rate_deg_s"))
+        if getattr(self, wanted) is None:
+            raise InputError(join(path, wanted), f"is required for task {self.task}")
+        if getattr(self, other) is not None:
+            raise InputError(join(path, other), f"does not apply to task {self.task} (give {wanted})")
+        if self.omega_ref == 0.0:
+            raise InputError(join(path, wanted), "must be non-zero: one gyro cannot observe a body "
+                                                 "with Omega = 0 (det W ~ Omega^3, eq. 4.5)")
+
+    @property
+    def omega_ref(self) -> float:
+        """Omega (task spin) or Omega* (task detumble) [rad/s] about body z."""
+        value = self.spin_rate_deg_s if self.task == "spin" else self.residual_rate_deg_s
+        return float(np.radians(value))
+
+    @property
+    def rate_key(self) -> str:
+        return "spin_rate_deg_s" if self.task == "spin" else "residual_rate_deg_s"
+
+
+@stage("law", "lebedev", LebedevLawParams)
+class LebedevLaw:
+    """M_i = I_i k_i (w_hat_i - Omega delta_i3) (Lebedev 1976, eq. 4.1 and 4.7).
+
+    Uses the estimator's `omega`; no torque while its `closed_loop` flag is 0 (the start-up
+    phase of section 3). An estimator without the flag is taken as always closed.
+    """
+
+    def __init__(self, params: LebedevLawParams, ctx):
+        self.inertia = principal_moments(ctx.inertia)
+        self.target = np.array([0.0, 0.0, params.omega_ref])
+        with scenario_fields({"control.gains": "pipeline.law.gains_per_s", "body.inertia": "model.inertia_kg_m2"}):
+            self.k = check_gains(self.inertia, params.omega_ref, params.gains_per_s)
+
+    def torque(self, t, estimate):
+        closed = bool(np.asarray(estimate.get("closed_loop", [1.0]))[0])
+        if not closed or "omega" not in estimate:
+            return {"torque": np.zeros(3)}
+        z = np.asarray(estimate["omega"], float) - self.target
+        return {"torque": lebedev_torque(self.inertia, self.k, z)}
+
+
+# --- the observer (eq. 3.1 and 4.6) --------------------------------------------------------
+
+@dataclass(kw_only=True)
+class LebedevObserverParams:
+    poles_per_s: list[float] = param(length=3, doc="real parts of the wanted eig(A - l C); repeats allowed")
+    poles_imag_per_s: list[float] = param([0.0, 0.0, 0.0], length=3, doc="imaginary parts (conjugate pairs)")
+    startup_s: float = param(ge=0, doc="open-loop start-up phase (section 3) before control begins")
+    max_substep_s: float = param(0.05, gt=0, doc="RK4 substep of the observer ODE within a control period")
+    design_momentum_nms: list[float] | None = param(None, length=3, doc=(
+        "internal (CMG) momentum H at the operating point, body axes: the closed-loop gain then places "
+        "eig(A + I^-1 [H x] - l C); none: the paper's rigid body"))
+
+    def validate(self, path: str) -> None:
+        with scenario_fields({"observer.poles": join(path, "poles_per_s")}):
+            self.poles = check_observer_poles(np.array(self.poles_per_s) + 1j * np.array(self.poles_imag_per_s))
+
+
+@stage("estimator", "lebedev", LebedevObserverParams)
+class LebedevEstimator:
+    """One-gyro observer; outputs `z`, `closed_loop` (0/1), `innovation` and, once the loop is
+    closed, `omega` = z + (0, 0, Omega). Withholding `omega` during start-up keeps a steering
+    allocator from compensating w x H with the start-up transient (peaks of ~70 deg/s)."""
+
+    def __init__(self, params: LebedevObserverParams, ctx):
+        stages = ctx.scenario.stages
+        sensor_name, sensor = stages["sensor"]
+        if sensor_name != "rate_gyro":
+            raise InputError("pipeline.sensor.type", f"the lebedev estimator needs the single-axis rate_gyro "
+                                                     f"(y = p . w, eq. 1.1), got {sensor_name!r}")
+        law_name, law = stages["law"]
+        if law_name != "lebedev":
+            raise InputError("pipeline.law.type", f"the lebedev estimator takes Omega from the lebedev law, "
+                                                  f"got {law_name!r}")
+        allocator_name = stages["allocator"][0]
+        self.torque_key = _delivered_torque_key(allocator_name)
+        self.inertia = principal_moments(ctx.inertia)
+        names = {"sensor.axis": "pipeline.sensor.axis", "body.inertia": "model.inertia_kg_m2",
+                 "control.spin_rate": f"pipeline.law.{law.rate_key}",
+                 "observer.poles": "pipeline.estimator.poles_per_s",
+                 "observer.max_substep": "pipeline.estimator.max_substep_s"}
+        with scenario_fields(names):
+            self.observer = LebedevObserver(self.inertia, law.omega_ref, sensor.axis, params.poles,
+                                            params.max_substep_s, params.design_momentum_nms)
+        self.startup = params.startup_s
+        self.l = self.observer.l
+        self._t_prev: float | None = None
+        self._y_prev = 0.0
+
+    def estimate(self, t, measurement, command):
+        y = float(np.asarray(measurement["y"])[0])
+        if self._t_prev is not None:
+            h = t - self._t_prev
+            if self._t_prev < self.startup:
+                self.observer.startup_step(self._y_prev, h)      # eq. 3.1, body uncontrolled
+            else:
+                torque = np.asarray(command.get(self.torque_key, np.zeros(3)), float)
+                self.observer.step(self._y_prev, torque / self.inertia, h)  # eq. 4.6, u = M / I
+        self._t_prev, self._y_prev = t, y
+        obs = self.observer
+        innovation = y - obs.C[2] * obs.spin_rate - obs.C @ obs.z
+        closed = t >= self.startup
+        out = {"z": obs.z.copy(), "closed_loop": np.array([1.0 if closed else 0.0]),
+               "innovation": np.array([innovation])}
+        if closed:  # the start-up estimate may be far off: nobody downstream acts on it
+            out["omega"] = obs.omega_estimate()
+        return out
+
+
+def _delivered_torque_key(allocator_name: str) -> str:
+    """The command key holding the body torque actually applied over the last period."""
+    from testbed.steering import STEERING_LAWS
+
+    if pipeline.output_of("allocator", allocator_name) == "body_torque":
+        return "body_torque"
+    if allocator_name in STEERING_LAWS:
+        return "torque_delivered"
+    raise InputError("pipeline.allocator.type", f"the lebedev estimator needs u = M / I: use ideal_torque or a "
+                                                f"steering law that reports torque_delivered, got {allocator_name!r}")

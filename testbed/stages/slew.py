@@ -1,0 +1,98 @@
+"""The `slew` law: follow a program rotation (SEEDS §004 stage 1) with the tracking law.
+
+The program Λ*(t) goes from the scenario's initial attitude q0 to qT = q0 ∘ (axis, angle)
+(a rotation about a body axis) in duration_s, starting at start_s, with the boundary body
+rates initial_rate_deg_s and final_rate_deg_s (eq. 3, 10-13; rest to rest by default: the
+eigen-axis slew). The wanted torque is the program torque M* (eq. 9) plus quaternion PD
+feedback with gyroscopic compensation (testbed.guidance.tracking_law), designed on the
+locked system inertia ctx.inertia. Before start_s the program holds q0 (rest start);
+after the slew it holds qT (or spins on at the final rate).
+
+Records `law/torque`, the program `program_quat`, `program_omega`, `program_torque`, and the
+attitude error as a rotation vector `attitude_error` [rad, body axes] and its angle `error_angle`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from testbed.errors import InputError
+from testbed.guidance.program_trajectory import ProgramTrajectory
+from testbed.guidance.tracking_law import TrackingLaw
+from testbed.physical_checks import check_unit_vector
+from testbed.pipeline import stage
+from testbed.quaternion import quat_from_axis_angle, quat_mul
+from testbed.schema import join, param
+
+ZERO3 = [0.0, 0.0, 0.0]
+# Library field names (testbed.guidance) -> this stage's scenario keys, for error messages.
+_FIELDS = {"slew.duration_s": "duration_s", "slew.axis": "axis", "slew.angle_rad": "angle_deg",
+           "slew.w_initial_rad_s": "initial_rate_deg_s", "slew.w_target_rad_s": "final_rate_deg_s",
+           "control.natural_frequency_rad_s": "natural_frequency_rad_s",
+           "control.damping_ratio": "damping_ratio"}
+LAW_PATH = "pipeline.law"
+
+
+@dataclass(kw_only=True)
+class SlewParams:
+    axis: list[float] = param(length=3, doc="unit rotation axis, body axes at the start")
+    angle_deg: float = param(ge=-180.0, le=180.0, doc="slew angle about axis")
+    duration_s: float = param(gt=0, doc="slew time T")
+    start_s: float = param(0.0, ge=0, doc="when the slew begins")
+    initial_rate_deg_s: list[float] = param(ZERO3, length=3, doc="program body rate at start_s")
+    final_rate_deg_s: list[float] = param(ZERO3, length=3, doc="program body rate at start_s + T")
+    natural_frequency_rad_s: float = param(0.5, gt=0, doc="tracking-error natural frequency")
+    damping_ratio: float = param(0.9, ge=0, doc="tracking-error damping ratio")
+
+    def validate(self, path: str) -> None:
+        check_unit_vector(self.axis, join(path, "axis"))
+
+
+def build_program(params: SlewParams, q0) -> ProgramTrajectory:
+    """The program of SEEDS §004 eq. (5)-(13) from q0 to q0 ∘ (axis, angle); errors name scenario keys."""
+    try:
+        q0 = np.asarray(q0, float) / np.linalg.norm(q0)
+        axis, angle = np.asarray(params.axis, float), np.radians(params.angle_deg)
+        w0, wT = np.radians(params.initial_rate_deg_s), np.radians(params.final_rate_deg_s)
+        if not np.any(w0) and not np.any(wT):
+            return ProgramTrajectory.eigen_axis_slew(q0, axis, angle, params.duration_s)
+        qT = quat_mul(q0, quat_from_axis_angle(axis, angle))
+        return ProgramTrajectory.from_boundary(q0, w0, qT, wT, params.duration_s)
+    except InputError as exc:
+        raise InputError(join(LAW_PATH, _FIELDS.get(exc.field, exc.field)), exc.reason) from None
+
+
+def rotation_vector(dq: np.ndarray) -> np.ndarray:
+    """θ = angle * axis of unit quaternion dq, the short way (angle in [0, π]) [rad]."""
+    dq = dq if dq[0] >= 0 else -dq
+    s = float(np.linalg.norm(dq[1:]))
+    if s == 0.0:
+        return np.zeros(3)
+    return 2.0 * np.arctan2(s, dq[0]) * dq[1:] / s
+
+
+@stage("law", "slew", SlewParams)
+class Slew:
+    def __init__(self, params: SlewParams, ctx):
+        if ctx.scenario.stages["estimator"][0] == "none":
+            raise InputError("pipeline.estimator.type", "the slew law needs an estimator that gives quat "
+                             "and omega (e.g. sensor ideal_attitude with estimator attitude)")
+        self.start = params.start_s
+        self.program = build_program(params, ctx.scenario.initial.quat)
+        try:
+            self.tracking = TrackingLaw(self.program, ctx.inertia, params.natural_frequency_rad_s,
+                                        params.damping_ratio)
+        except InputError as exc:
+            raise InputError(join(LAW_PATH, _FIELDS.get(exc.field, exc.field)), exc.reason) from None
+        self.inertia = self.tracking.inertia
+
+    def torque(self, t, estimate):
+        tau = t - self.start
+        torque, dq, _ = self.tracking.torque_and_errors(tau, estimate["quat"], estimate["omega"])
+        q_p, w_p, dw_p = self.program.state(tau)
+        error = rotation_vector(dq)
+        return {"torque": torque, "program_quat": q_p, "program_omega": w_p,
+                "program_torque": self.inertia @ dw_p + np.cross(w_p, self.inertia @ w_p),
+                "attitude_error": error, "error_angle": np.array([np.linalg.norm(error)])}
