@@ -25,3 +25,22 @@ def check_unit_vector(vector, path: str) -> np.ndarray:
     if abs(norm - 1.0) > 1e-9:
         raise InputError(path, f"must be a unit vector, |v| = {norm:.9g}")
     return v
+
+
+def finite_number(field: str, value) -> float:
+    """`value` as a finite float, else InputError naming `field`."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise InputError(field, f"must be a number, got {value!r}") from None
+    if not np.isfinite(x):
+        raise InputError(field, f"must be finite, got {value!r}")
+    return x
+
+
+def positive_number(field: str, value) -> float:
+    """`value` as a finite float > 0, else InputError naming `field`."""
+    x = finite_number(field, value)
+    if x <= 0:
+        raise InputError(field, f"must be > 0, got {x:g}")
+    return x

@@ -8,7 +8,6 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from testbed.cli import main
-from testbed.euler_angles import body_rates
 from testbed.runner import run_scenario
 from testbed.scenario import load_scenario
 

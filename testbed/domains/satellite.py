@@ -11,7 +11,7 @@ import mujoco
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.physical_checks import check_principal_inertia
+from testbed.physical_checks import check_principal_inertia, positive_number
 
 MODELS_DIR = Path(__file__).resolve().parents[2] / "models"
 SATELLITE_XML = MODELS_DIR / "satellite.xml"
@@ -55,13 +55,7 @@ def positive_vector(field, value, size):
 
 def positive_scalar(field, value):
     """`value` as a strictly positive finite float, else InputError."""
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(field, f"expected a number, got {value!r}") from None
-    if not np.isfinite(x) or x <= 0:
-        raise InputError(field, f"must be positive and finite, got {x}")
-    return x
+    return positive_number(field, value)
 
 
 def principal_inertia(field, value):

@@ -30,6 +30,7 @@ import numpy as np
 
 from testbed.domains.cmg_rhombus import rhombus_axes
 from testbed.errors import InputError
+from testbed.physical_checks import finite_number, positive_number
 
 # Directions u closer than this (|g_i × u|) to a gimbal axis are skipped (see module doc).
 _AXIS_EPS = 1e-6
@@ -40,7 +41,7 @@ EXTERNAL = (1, 1, 1, 1)
 def rhombus_geometry(alpha):
     """(e, s, g) of the rhombus cluster (SEEDS §004 eq. 15): β = 0 directions e (4, 3),
     signs s (4,), gimbal axes g_i = s_i (e_i × z) (4, 3); from the domain's rhombus_axes."""
-    e, g, sz = rhombus_axes(_finite("cmg.alpha_rad", alpha))
+    e, g, sz = rhombus_axes(finite_number("cmg.alpha_rad", alpha))
     return e, sz[:, 2].copy(), g
 
 
@@ -70,7 +71,7 @@ def singular_momenta(u, signs, axes, h=1.0) -> np.ndarray:
     eps = np.asarray(signs, dtype=float).reshape(1, -1, 1)
     if eps.shape[1] != g.shape[0] or not np.all(np.abs(eps) == 1):
         raise InputError("envelope.signs", f"must be {g.shape[0]} values of +1 or -1, got {signs!r}")
-    h = _positive("cmg.h_Nms", h)
+    h = positive_number("cmg.h_Nms", h)
     gxu = np.cross(g[None, :, :], u[:, None, :])  # (m, 4, 3)
     norm = np.linalg.norm(gxu, axis=-1, keepdims=True)
     if np.any(norm < _AXIS_EPS):
@@ -111,7 +112,7 @@ def write_envelope_rrd(path, alpha, h, n, axes=None) -> Path:
     import rerun as rr  # deferred: the geometry above does not need the viewer SDK
 
     g = rhombus_gimbal_axes(alpha) if axes is None else _axes(axes)
-    h = _positive("cmg.h_Nms", h)
+    h = positive_number("cmg.h_Nms", h)
     surfaces = singular_surface_points(alpha, n, h, g)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -135,23 +136,6 @@ def write_envelope_rrd(path, alpha, h, n, axes=None) -> Path:
     rec.flush()
     rec.disconnect()
     return path
-
-
-def _finite(field, value) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(field, f"must be a number, got {value!r}") from None
-    if not np.isfinite(x):
-        raise InputError(field, f"must be finite, got {value!r}")
-    return x
-
-
-def _positive(field, value) -> float:
-    x = _finite(field, value)
-    if x <= 0:
-        raise InputError(field, f"must be > 0, got {x:g}")
-    return x
 
 
 def _count(field, value) -> int:

@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from testbed.errors import InputError
+from testbed.physical_checks import finite_number
 from testbed.guidance.program_trajectory import inertia_matrix, unit_quaternion, vector3
 from testbed.quaternion import quat_conj, quat_mul, quat_rotate
 
@@ -38,8 +39,8 @@ class TrackingLaw:
     def __init__(self, program, inertia, natural_frequency, damping_ratio):
         self.program = program
         self.inertia = inertia_matrix(inertia)
-        wn = _number("control.natural_frequency_rad_s", natural_frequency)
-        zeta = _number("control.damping_ratio", damping_ratio)
+        wn = finite_number("control.natural_frequency_rad_s", natural_frequency)
+        zeta = finite_number("control.damping_ratio", damping_ratio)
         if wn <= 0:
             raise InputError("control.natural_frequency_rad_s", f"must be > 0, got {wn:g}")
         if zeta < 0:
@@ -84,11 +85,3 @@ class TrackingLaw:
         return self.inertia @ acc_d + np.cross(w, self.inertia @ w) + self._pd(dq, dw), dq, dw
 
 
-def _number(field: str, value) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(field, f"must be a number, got {value!r}") from None
-    if not np.isfinite(x):
-        raise InputError(field, f"must be finite, got {value!r}")
-    return x
