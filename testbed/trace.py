@@ -56,7 +56,13 @@ def _blueprint(recorder: Recorder, scene: dict | None) -> rrb.Blueprint:
     for key in sorted(recorder.keys(), key=lambda k: (GROUP_ORDER.index(k.split("/")[0])
                                                      if k.split("/")[0] in GROUP_ORDER else 99, k)):
         groups.setdefault(key.split("/")[0], []).append(key)
-    tabs = [rrb.Grid(*[rrb.TimeSeriesView(origin=f"/{key}", name=key) for key in keys], name=group)
+    # Every plot shows the whole run (not a window around the time cursor), legend out of the way.
+    t_end = float(recorder.time[-1]) if recorder.count else 1.0
+    whole_run = rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.absolute(seconds=0.0),
+                                                      end=rrb.TimeRangeBoundary.absolute(seconds=t_end)))
+    tabs = [rrb.Grid(*[rrb.TimeSeriesView(origin=f"/{key}", name=key, axis_x=whole_run,
+                                          plot_legend=rrb.PlotLegend(rrb.Corner2D.RightTop)) for key in keys],
+                     name=group)
             for group, keys in groups.items()]
     plots = rrb.Tabs(*tabs) if tabs else rrb.TextDocumentView(origin=f"/{RESULT_ENTITY}")
     left = []
