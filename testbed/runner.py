@@ -10,7 +10,6 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-
 import testbed.stages  # noqa: F401  (registers the stages)
 from testbed import metrics, references_registry, systems, trace
 from testbed.errors import InputError

@@ -13,8 +13,8 @@ from typing import Callable
 import numpy as np
 
 from testbed import schema
-from testbed.domains import cmg_rhombus, gyrostat, satellite
-from testbed.domains import planar
+from testbed import gyrostat_pair_plant, variable_gyrostat_plant
+from testbed.domains import cmg_rhombus, gyrostat, planar, satellite
 from testbed.errors import InputError
 from testbed.physical_checks import check_principal_inertia
 from testbed.schema import join, param
@@ -77,6 +77,12 @@ def _cmg_plant(p: CmgRhombusParams, sim):
     return CmgPlant(model)
 
 
+def _planar_plant(p, sim):
+    from testbed.planar_plant import PlanarPlant
+
+    return PlanarPlant(p, sim)
+
+
 # Domain parameter name -> scenario key, for errors the domain raises while building.
 _CMG_KEYS = {"servo_natural_frequency": "servo_natural_frequency_rad_s",
              "rotor_speed_time_constant": "rotor_speed_time_constant_s", "timestep": "sim.dt_s"}
@@ -95,24 +101,13 @@ SYSTEMS: dict[str, System] = {
     "gyrostat": System(
         gyrostat.GyrostatParams,
         lambda p, sim: gyrostat.GyrostatPlant(gyrostat.build(p, sim.dt_s, sim.integrator), p)),
+    # hinge-mounted planar rig (Avdeev & Kaptsova 2016): no free body, no momentum metrics
+    "planar": System(planar.PlanarParams, _planar_plant, free_flying=False),
+    # SEEDS 002 (variable structure, program motion) and 003 (leader/follower pair)
+    "gyrostat_variable": System(variable_gyrostat_plant.VariableGyrostatScenarioParams,
+                                variable_gyrostat_plant.make_plant),
+    "gyrostat_pair": System(gyrostat_pair_plant.GyrostatPairScenarioParams, gyrostat_pair_plant.make_plant),
 }
-
-
-def _planar_plant(p, sim):
-    from testbed.planar_plant import PlanarPlant
-
-    return PlanarPlant(p, sim)
-
-
-# issue 5: hinge-mounted planar rig (Avdeev & Kaptsova 2016); no free body, no momentum metrics
-SYSTEMS["planar"] = System(planar.PlanarParams, _planar_plant, free_flying=False)
-
-# issue 6: gyrostats of seeds 002 (variable structure, program motion) and 003 (leader/follower)
-from testbed import gyrostat_pair_plant, variable_gyrostat_plant  # noqa: E402
-
-SYSTEMS["gyrostat_variable"] = System(variable_gyrostat_plant.VariableGyrostatScenarioParams,
-                                      variable_gyrostat_plant.make_plant)
-SYSTEMS["gyrostat_pair"] = System(gyrostat_pair_plant.GyrostatPairScenarioParams, gyrostat_pair_plant.make_plant)
 
 
 def load_params(config: dict, path: str):
