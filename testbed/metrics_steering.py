@@ -1,10 +1,10 @@
 """Metrics of CMG steering runs (issue 3, SEEDS §004): attitude reached, gimbal rates, singularity.
 
 They apply to `cmg_rhombus` runs whose allocator is a steering law (testbed.steering); the
-attitude metrics also need the `slew` law. Signals are read at the trace samples: a scenario
-that wants every control step counted (e.g. the minimum singularity measure) sets
-trace_period_s = control_period_s. The last trace row holds only the final truth (no command
-was computed there), so command signals are reduced with nan-aware functions.
+attitude metrics also need the `slew` law. The commanded-rate, rate-limit, singularity and
+scale metrics count EVERY control step (the allocator keeps those extremes itself), whatever
+the trace period; the others read the trace samples. The last trace row holds only the final
+truth (no command was computed there), so command signals are reduced with nan-aware functions.
 """
 
 from __future__ import annotations
@@ -28,11 +28,6 @@ def _torque_demanded(scenario) -> bool:
     return _steered(scenario) and scenario.stages["law"][0] != "none"
 
 
-def _rate_max(run) -> float:
-    """The allocator's gimbal-rate limit b'max [rad/s]."""
-    return float(np.radians(run.scenario.stages["allocator"][1].beta_rate_max_deg_s))
-
-
 @metric("final_attitude_error_deg", applies=_slewed)
 def final_attitude_error_deg(run) -> float:
     """Angle between the final bus attitude and the program attitude at that time (the target) [deg]."""
@@ -54,8 +49,8 @@ def max_tracking_error_deg(run) -> float:
 
 @metric("peak_gimbal_rate_deg_s", applies=_steered)
 def peak_gimbal_rate_deg_s(run) -> float:
-    """max_t max_i |b'_i| of the commanded gimbal rates [deg/s]."""
-    return float(np.degrees(np.nanmax(np.abs(run.recorder["allocator/gimbal_rates"]))))
+    """max over every control step and gimbal of the commanded |b'_i| [deg/s]."""
+    return float(np.degrees(run.extra["allocator"]["peak_gimbal_rate"]))
 
 
 @metric("peak_gimbal_rate_measured_deg_s", applies=_steered)
@@ -66,21 +61,20 @@ def peak_gimbal_rate_measured_deg_s(run) -> float:
 
 @metric("rate_limit_violations", applies=_steered)
 def rate_limit_violations(run) -> float:
-    """Count of commanded |b'_i| > b'max over samples and gimbals (SEEDS §004 eq. 4; must be 0)."""
-    rates = np.abs(run.recorder["allocator/gimbal_rates"])
-    return float(np.count_nonzero(rates[np.isfinite(rates)] > _rate_max(run)))
+    """Count of commanded |b'_i| > b'max over every control step and gimbal (SEEDS §004 eq. 4; must be 0)."""
+    return float(run.extra["allocator"]["rate_limit_violations"])
 
 
 @metric("min_singularity_measure", applies=_steered)
 def min_singularity_measure(run) -> float:
-    """min over control samples of m = sqrt(det(J J^T)) of the unit Jacobian (0: singular; 1.54 at most)."""
-    return float(np.nanmin(run.recorder["allocator/singularity"]))
+    """min over every control step of m = sqrt(det(J J^T)) of the unit Jacobian (0: singular; 1.54 at most)."""
+    return float(run.extra["allocator"]["min_singularity"])
 
 
 @metric("min_scale", applies=_steered)
 def min_scale(run) -> float:
-    """Smallest factor k the rate limit applied to the demand (1: never limited)."""
-    return float(np.nanmin(run.recorder["allocator/scale"]))
+    """Smallest factor k the rate limit applied to the demand over every control step (1: never limited)."""
+    return float(run.extra["allocator"]["min_scale"])
 
 
 def _torque_error(run) -> np.ndarray:

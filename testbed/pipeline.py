@@ -95,6 +95,9 @@ class Pipeline:
         stages = [build(slot, *configs[slot], ctx) for slot in SLOTS]
         return cls(*stages)
 
+    def stages(self) -> dict:
+        return dict(zip(SLOTS, (self.sensor, self.estimator, self.law, self.allocator)))
+
     def tick(self, t: float, plant) -> dict[str, dict[str, np.ndarray]]:
         measurement = self.sensor.measure(t, plant)
         estimate = self.estimator.estimate(t, measurement, self.command)

@@ -26,6 +26,8 @@ class RunData:
     recorder: Recorder
     plant: object
     momentum_scale: float
+    # slot -> a stage's own counts over every control step (e.g. the steering extremes);
+    # metrics also cache derived figures here
     extra: dict = field(default_factory=dict)
 
 
@@ -85,7 +87,9 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     if recorder.count:
         for key, values in plant.derived_signals(recorder).items():
             recorder.add_series(key, values)
-    data = RunData(scenario, recorder, plant, momentum_scale)
+    data = RunData(scenario, recorder, plant, momentum_scale,
+                   {slot: stage.statistics for slot, stage in pipeline.stages().items()
+                    if hasattr(stage, "statistics")})
     if reference is not None and recorder.count > 1:
         omega_ref = reference(recorder.time, recorder)
         recorder.add_series("reference/omega", omega_ref)

@@ -151,3 +151,18 @@ def test_slew_with_boundary_rates_meets_them():
     law, _ = _slew(initial_rate_deg_s=w0, final_rate_deg_s=wT)
     np.testing.assert_allclose(law.program.state(0.0)[1], np.radians(w0), atol=1e-12)
     np.testing.assert_allclose(law.program.state(40.0)[1], np.radians(wT), atol=1e-12)
+
+
+def test_steering_extremes_count_every_control_step_whatever_the_trace_period(runs):
+    """A trace 20x coarser than the control period changes nothing in the dynamics, so the
+    steering extremes (taken by the allocator at every step) must equal those of the full trace."""
+    coarse = run_scenario(load_scenario("reorient_pinv", ["sim.trace_period_s=1.0"]), None, keep_data=True)
+    full = runs["pinv"]
+    assert len(coarse.data.recorder.time) < len(full.data.recorder.time) / 10
+    for name in ("peak_gimbal_rate_deg_s", "min_singularity_measure", "min_scale", "rate_limit_violations"):
+        assert coarse.metrics[name] == full.metrics[name], name
+    rec = full.data.recorder  # full trace = every control step: the recorded extremes agree
+    assert full.metrics["min_singularity_measure"] == np.nanmin(rec["allocator/singularity"])
+    assert full.metrics["peak_gimbal_rate_deg_s"] == pytest.approx(
+        np.degrees(np.nanmax(np.abs(rec["allocator/gimbal_rates"]))), rel=1e-15)
+    assert full.data.extra["allocator"]["steps"] == round(60.0 / 0.05)

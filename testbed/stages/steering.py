@@ -54,6 +54,7 @@ class SteeringAllocator:
         defaults = {"rcond": STAGE_RCOND} if "rcond" in LAW_OPTIONS[self.law_name] else {}
         self.options = defaults | params.options
         self._check_options()
+        self.reset_statistics()
 
     def _check_options(self) -> None:
         """Call the law once with a zero demand so a bad option value is refused before the run."""
@@ -63,6 +64,20 @@ class SteeringAllocator:
         except InputError as exc:
             option = exc.field.removeprefix("steering.")
             raise InputError(f"pipeline.allocator.options.{option}", exc.reason) from None
+
+    def reset_statistics(self) -> None:
+        self.statistics = {"peak_gimbal_rate": 0.0, "rate_limit_violations": 0,
+                           "min_singularity": np.inf, "min_scale": 1.0, "steps": 0}
+
+    def _count(self, result) -> None:
+        """Extremes over EVERY control step, whatever the trace period (read by the metrics)."""
+        s = self.statistics
+        peak = float(np.max(np.abs(result.beta_rate)))
+        s["peak_gimbal_rate"] = max(s["peak_gimbal_rate"], peak)
+        s["rate_limit_violations"] += int(np.count_nonzero(np.abs(result.beta_rate) > self.rate_max))
+        s["min_singularity"] = min(s["min_singularity"], result.singularity_measure)
+        s["min_scale"] = min(s["min_scale"], result.scale)
+        s["steps"] += 1
 
     def allocate(self, t, demand, estimate, actuators):
         beta, rotor = actuators["gimbal_angle"], actuators["rotor_rate"]
@@ -75,6 +90,7 @@ class SteeringAllocator:
         if self.law_name == "gsr":
             options["t"] = t
         result = self.law(self.geometry.unit_jacobian(beta), self.geometry.h, hdot, self.rate_max, **options)
+        self._count(result)
         return {"gimbal_rates": result.beta_rate,
                 "torque_delivered": -result.hdot_delivered - gyroscopic,
                 "scale": np.array([result.scale]),
