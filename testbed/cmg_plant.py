@@ -30,11 +30,8 @@ class CmgPlant(Plant):
     def derived_signals(self, recorder) -> dict[str, np.ndarray]:
         """Cluster spin momentum H(beta, Omega), body axes, from the recorded gimbal and rotor
         histories (SEEDS §004 eq. 15), computed after the run in one vectorised pass."""
-        beta = recorder["truth/gimbal_angle"]
-        rotor = recorder["truth/rotor_rate"]
-        g = self.geometry
-        axes = (np.cos(beta)[:, :, None] * g.spin_axes_zero + np.sin(beta)[:, :, None] * g.turn_axes)
-        return {"truth/cmg_momentum": np.einsum("ni,nij->nj", g.spin_inertia * rotor, axes)}
+        return {"truth/cmg_momentum": self.geometry.momentum(recorder["truth/gimbal_angle"],
+                                                            recorder["truth/rotor_rate"])}
 
     def actuator_state(self) -> dict[str, np.ndarray]:
         """What the gimbal encoders and rotor tachometers report."""

@@ -3,6 +3,7 @@
 `q` maps body-frame vectors to the world frame: v_world = q ∘ v_body ∘ q~.
 """
 
+import mujoco
 import numpy as np
 
 
@@ -43,3 +44,29 @@ def quat_angle(q):
     q = np.asarray(q, dtype=float)
     vn = np.linalg.norm(q[..., 1:], axis=-1)
     return 2.0 * np.arctan2(vn, np.abs(q[..., 0]))
+
+
+def quat_to_matrix(q):
+    """Rotation matrix of unit quaternion q (MuJoCo's mju_quat2Mat), (3, 3)."""
+    mat = np.zeros(9)
+    mujoco.mju_quat2Mat(mat, np.asarray(q, dtype=float))
+    return mat.reshape(3, 3)
+
+
+def quat_from_rotation_vector(theta):
+    """Unit quaternion exp(theta/2) = (cos |theta|/2, sin(|theta|/2) theta/|theta|) of a rotation vector [rad]."""
+    theta = np.asarray(theta, dtype=float)
+    angle = float(np.linalg.norm(theta))
+    if angle == 0.0:
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    return quat_from_axis_angle(theta / angle, angle)
+
+
+def rotation_vector(q):
+    """theta = angle * axis of unit quaternion q, the short way (angle in [0, pi]) [rad]."""
+    q = np.asarray(q, dtype=float)
+    q = q if q[0] >= 0 else -q
+    s = float(np.linalg.norm(q[1:]))
+    if s == 0.0:
+        return np.zeros(3)
+    return 2.0 * np.arctan2(s, q[0]) * q[1:] / s

@@ -22,6 +22,7 @@ import numpy as np
 from testbed.domains.satellite import (
     BUS_BODY, MODELS_DIR, FreeBus, apply_bus_params, positive_scalar, principal_inertia)
 from testbed.errors import InputError
+from testbed.quaternion import quat_to_matrix
 
 CMG_RHOMBUS_XML = MODELS_DIR / "cmg_rhombus.xml"
 N_CMG = 4
@@ -191,12 +192,6 @@ def _write_initial_key(spec, beta0, omega_rotor):
     key.ctrl = [0.0] * 3 + [0.0] * N_CMG + [omega_rotor] * N_CMG
 
 
-def _quat_to_mat(quat):
-    mat = np.zeros(9)
-    mujoco.mju_quat2Mat(mat, np.asarray(quat, dtype=float))
-    return mat.reshape(3, 3)
-
-
 class ClusterGeometry:
     """CMG cluster geometry read from a compiled model, in the bus frame.
 
@@ -226,12 +221,12 @@ class ClusterGeometry:
             gimbal, rotor = model.body(gimbal_name), model.body(rotor_name)
             if gimbal.parentid[0] != bus_id or rotor.parentid[0] != gimbal.id:
                 raise ValueError(f"{rotor_name} must sit in {gimbal_name}, which sits in bus")
-            to_bus = _quat_to_mat(gimbal.quat)  # gimbal frame -> bus frame
-            rotor_to_bus = to_bus @ _quat_to_mat(rotor.quat)
+            to_bus = quat_to_matrix(gimbal.quat)  # gimbal frame -> bus frame
+            rotor_to_bus = to_bus @ quat_to_matrix(rotor.quat)
             rotor_axis = model.jnt_axis[model.joint(rotor_name).id]  # rotor frame
             gimbal_axes.append(to_bus @ model.jnt_axis[model.joint(gimbal_name).id])
             spin_axes.append(rotor_to_bus @ rotor_axis)
-            inertial = _quat_to_mat(rotor.iquat)  # principal frame -> rotor frame
+            inertial = quat_to_matrix(rotor.iquat)  # principal frame -> rotor frame
             inertia_rotor_frame = inertial @ np.diag(rotor.inertia) @ inertial.T
             spin_inertia.append(rotor_axis @ inertia_rotor_frame @ rotor_axis)
         speed = model.numeric(ROTOR_SPEED_NUMERIC).data[0]
@@ -243,16 +238,17 @@ class ClusterGeometry:
         return float(np.arctan2(self.spin_axes_zero[0, 1], self.spin_axes_zero[0, 0]))
 
     def spin_axes(self, beta):
-        """Unit spin axes at gimbal angles beta, (4, 3): cos b_i e_i + sin b_i s_i z."""
-        beta = np.asarray(beta, dtype=float)[:, None]
+        """Unit spin axes at gimbal angles beta, (..., 4, 3): cos b_i e_i + sin b_i s_i z."""
+        beta = np.asarray(beta, dtype=float)[..., None]
         return np.cos(beta) * self.spin_axes_zero + np.sin(beta) * self.turn_axes
 
     def momentum(self, beta, rotor_rates=None):
         """Total rotor spin momentum H(beta) = sum_i h_i (cos b_i e_i + sin b_i s_i z) in the
-        bus frame [N m s] (SEEDS §004 eq. (15)); with rotor_rates, h_i = Js_i Omega_i."""
+        bus frame [N m s] (SEEDS §004 eq. (15)); with rotor_rates, h_i = Js_i Omega_i.
+        Leading dimensions of beta and rotor_rates (e.g. a recorded history) broadcast."""
         h = self.rotor_momentum if rotor_rates is None else (
             self.spin_inertia * np.asarray(rotor_rates, dtype=float))
-        return h @ self.spin_axes(beta)
+        return (h[..., None, :] @ self.spin_axes(beta))[..., 0, :]
 
     def unit_jacobian(self, beta):
         """dH/dbeta per unit rotor momentum, (3, 4): column i = -sin b_i e_i + cos b_i s_i z

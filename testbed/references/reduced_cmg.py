@@ -34,12 +34,7 @@ from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from testbed.domains.cmg_rhombus import GIMBALS, ROTORS, ClusterGeometry
 from testbed.domains.satellite import BUS_BODY
-
-
-def _quat_to_mat(quat):
-    mat = np.zeros(9)
-    mujoco.mju_quat2Mat(mat, np.asarray(quat, dtype=float))
-    return mat.reshape(3, 3)
+from testbed.quaternion import quat_to_matrix
 
 
 def _rotation_about(axis, angle):
@@ -76,13 +71,13 @@ class CmgMassModel:
         geometry = ClusterGeometry.from_model(model)
         bus_id = model.body(BUS_BODY).id
         masses, coms, inertias = [model.body_mass[bus_id]], [model.body_ipos[bus_id]], []
-        iframe = _quat_to_mat(model.body_iquat[bus_id])
+        iframe = quat_to_matrix(model.body_iquat[bus_id])
         inertias.append(iframe @ np.diag(model.body_inertia[bus_id]) @ iframe.T)
         cmg_inertia = []
         for i, (gimbal_name, rotor_name) in enumerate(zip(GIMBALS, ROTORS)):
             gimbal, rotor = model.body(gimbal_name), model.body(rotor_name)
-            gimbal_rot = _quat_to_mat(gimbal.quat)
-            rotor_rot = gimbal_rot @ _quat_to_mat(rotor.quat)
+            gimbal_rot = quat_to_matrix(gimbal.quat)
+            rotor_rot = gimbal_rot @ quat_to_matrix(rotor.quat)
             gimbal_anchor = gimbal.pos + gimbal_rot @ model.jnt_pos[model.joint(gimbal_name).id]
             rotor_anchor = (gimbal.pos + gimbal_rot @ rotor.pos
                             + rotor_rot @ model.jnt_pos[model.joint(rotor_name).id])
@@ -94,11 +89,11 @@ class CmgMassModel:
                 # a CoM off its rotation axes would move the system CoM and the bus
                 if _distance_to_line(com, gimbal_anchor, geometry.gimbal_axes[i]) > 1e-9:
                     raise ValueError(f"{body.name} CoM is off the gimbal axis")
-                principal = rot @ _quat_to_mat(body.iquat)
+                principal = rot @ quat_to_matrix(body.iquat)
                 cmg += principal @ np.diag(body.inertia) @ principal.T
                 masses.append(body.mass[0])
                 coms.append(com)
-            rotor_principal = rotor_rot @ _quat_to_mat(rotor.iquat)
+            rotor_principal = rotor_rot @ quat_to_matrix(rotor.iquat)
             rotor_inertia = rotor_principal @ np.diag(rotor.inertia) @ rotor_principal.T
             if _distance_to_line(rotor_com, rotor_anchor, geometry.spin_axes_zero[i]) > 1e-9:
                 raise ValueError(f"{rotor_name} CoM is off its spin axis")

@@ -15,7 +15,7 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.pipeline import stage
-from testbed.quaternion import quat_mul
+from testbed.quaternion import quat_from_rotation_vector, quat_mul
 from testbed.schema import param
 
 
@@ -24,14 +24,6 @@ class IdealAttitudeParams:
     attitude_noise_rad: float = param(0.0, ge=0, doc="star-tracker noise, std of each small-angle component")
     rate_noise_rad_s: float = param(0.0, ge=0, doc="gyro white noise, std per axis and sample")
     seed: int = param(0, ge=0, doc="noise seed")
-
-
-def small_rotation(theta: np.ndarray) -> np.ndarray:
-    """Unit quaternion exp(θ/2) = (cos |θ|/2, sin(|θ|/2) θ/|θ|) of a rotation vector θ [rad]."""
-    angle = float(np.linalg.norm(theta))
-    if angle == 0.0:
-        return np.array([1.0, 0.0, 0.0, 0.0])
-    return np.concatenate([[np.cos(angle / 2)], np.sin(angle / 2) * theta / angle])
 
 
 @stage("sensor", "ideal_attitude", IdealAttitudeParams)
@@ -44,7 +36,7 @@ class IdealAttitude:
         p = self.params
         quat, omega = plant.quat(), plant.omega()
         if p.attitude_noise_rad:
-            quat = quat_mul(quat, small_rotation(p.attitude_noise_rad * self.rng.standard_normal(3)))
+            quat = quat_mul(quat, quat_from_rotation_vector(p.attitude_noise_rad * self.rng.standard_normal(3)))
         if p.rate_noise_rad_s:
             omega = omega + p.rate_noise_rad_s * self.rng.standard_normal(3)
         return {"quat": quat, "omega": omega}

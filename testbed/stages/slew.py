@@ -23,7 +23,7 @@ from testbed.guidance.program_trajectory import ProgramTrajectory
 from testbed.guidance.tracking_law import TrackingLaw
 from testbed.physical_checks import check_unit_vector
 from testbed.pipeline import stage
-from testbed.quaternion import quat_from_axis_angle, quat_mul
+from testbed.quaternion import quat_from_axis_angle, quat_mul, rotation_vector
 from testbed.schema import join, param
 
 ZERO3 = [0.0, 0.0, 0.0]
@@ -62,15 +62,6 @@ def build_program(params: SlewParams, q0) -> ProgramTrajectory:
         return ProgramTrajectory.from_boundary(q0, w0, qT, wT, params.duration_s)
     except InputError as exc:
         raise InputError(join(LAW_PATH, _FIELDS.get(exc.field, exc.field)), exc.reason) from None
-
-
-def rotation_vector(dq: np.ndarray) -> np.ndarray:
-    """θ = angle * axis of unit quaternion dq, the short way (angle in [0, π]) [rad]."""
-    dq = dq if dq[0] >= 0 else -dq
-    s = float(np.linalg.norm(dq[1:]))
-    if s == 0.0:
-        return np.zeros(3)
-    return 2.0 * np.arctan2(s, dq[0]) * dq[1:] / s
 
 
 @stage("law", "slew", SlewParams)
