@@ -280,28 +280,3 @@ class LebedevObserver:
     def omega_estimate(self):
         """Estimated body rate w = z + (0, 0, Omega) [rad/s] (inverse of eq. 4.1)."""
         return self.z + np.array([0.0, 0.0, self.spin_rate])
-
-
-class LebedevController:
-    """Start-up phase then closed loop (Lebedev 1976, sections 3 and 4, example of section 6).
-
-    For t < t_start the body is left uncontrolled and the linear observer (3.1) runs;
-    from t_start the torque M = I k z (4.7) is applied, held over the period, and the
-    same u = k z drives the nonlinear observer (4.6).
-    """
-
-    def __init__(self, inertia, spin_rate, sensor_axis, poles, gains, t_start, max_substep=0.05):
-        self.observer = LebedevObserver(inertia, spin_rate, sensor_axis, poles, max_substep)
-        self.k = check_gains(self.observer.inertia, spin_rate, gains)
-        if not t_start >= 0:
-            raise InputError("control.t_start", f"must be >= 0, got {t_start}")
-        self.t_start = float(t_start)
-
-    def update(self, t, y, dt):
-        """Torque [N m] to hold on [t, t + dt], given the gyro sample y at time t."""
-        if t < self.t_start:
-            self.observer.startup_step(y, dt)
-            return np.zeros(3)
-        torque = lebedev_torque(self.observer.inertia, self.k, self.observer.z)
-        self.observer.step(y, self.k * self.observer.z, dt)
-        return torque
