@@ -68,16 +68,16 @@ def _window(run, t0: float, t1: float):
     return t[keep], x[keep]
 
 
-def _cached(run, key, compute):
-    """compute() once per run; NaN when the recorded window cannot give it (e.g. a diverged
-    run cut short), so its checks fail instead of the run raising."""
+def _cached(run, key, compute, failed=float("nan")):
+    """compute() once per run; `failed` (NaN) when the recorded window cannot give it (e.g. a
+    diverged run cut short), so its checks fail instead of the run raising."""
     store = run.extra.setdefault("planar", {})
     if key not in store:
         try:
             with np.errstate(all="ignore"):
                 store[key] = compute()
         except (ValueError, IndexError, np.linalg.LinAlgError):
-            store[key] = np.full(2, np.nan) if key in ("er0", "er1") else float("nan")
+            store[key] = failed
     return store[key]
 
 
@@ -188,7 +188,7 @@ def _er0_sim(run) -> np.ndarray:
         t, x = _window(run, m.disturbance_start_s, end)
         value, _ = fig.steady_line(t, x)
         return value / m.disturbance_rad_s2
-    return _cached(run, "er0", compute)
+    return _cached(run, "er0", compute, failed=np.full(2, np.nan))
 
 
 @metric("akor_static_angle_error_rad", applies=_has_constant)
@@ -230,7 +230,7 @@ def _er1_sim(run) -> np.ndarray:
         value, slope = fig.steady_line(t, x)
         er0 = slope / m.disturbance_rate_rad_s3
         return (value - er0 * m.disturbance(t[-1])) / m.disturbance_rate_rad_s3
-    return _cached(run, "er1", compute)
+    return _cached(run, "er1", compute, failed=np.full(2, np.nan))
 
 
 @metric("akor_er1_angle_sim", applies=_has_ramp)

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from testbed.errors import InputError
+from testbed.physical_checks import check_unit_vector
 from testbed.quaternion import quat_conj, quat_from_axis_angle, quat_mul, quat_rotate
 
 # |(Λr0 b3 Λr0~) × b3| below this means b3 is (anti)parallel to its image: b2 is then free.
@@ -187,17 +188,12 @@ class ProgramTrajectory:
     @classmethod
     def eigen_axis_slew(cls, q0, axis, angle, T) -> "ProgramTrajectory":
         """Rest-to-rest slew by `angle` [rad, |angle| <= π] about the unit body `axis`, in time T."""
-        axis = vector3("slew.axis", axis)
-        norm = np.linalg.norm(axis)
-        if norm == 0:
-            raise InputError("slew.axis", "must be a unit vector, got the zero vector")
-        if abs(norm - 1.0) > 1e-9:
-            raise InputError("slew.axis", f"must be a unit vector, |axis| = {norm:.9g}")
+        axis = check_unit_vector(vector3("slew.axis", axis), "slew.axis")
         angle = float(angle)
         if not np.isfinite(angle) or abs(angle) > np.pi:
             raise InputError("slew.angle_rad", f"must be finite with |angle| <= pi, got {angle!r}")
         q0 = unit_quaternion("slew.q_initial", q0)
-        qT = quat_mul(q0, quat_from_axis_angle(axis / norm, angle))
+        qT = quat_mul(q0, quat_from_axis_angle(axis / np.linalg.norm(axis), angle))
         return cls.from_boundary(q0, np.zeros(3), qT, np.zeros(3), T)
 
     # ---- evaluation ---------------------------------------------------------------------
