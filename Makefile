@@ -2,12 +2,16 @@
 PY := .venv/bin/python
 FLAGSHIP ?= lebedev_spinup_cmg
 
-.PHONY: run test bench
+.PHONY: run test test-fast bench
 run: .venv/.installed
 	$(PY) -m testbed run $(FLAGSHIP)
 
 test: .venv/.installed
 	$(PY) -m pytest
+
+# Everything but the tests marked slow (whole-scenario runs): under a minute.
+test-fast: .venv/.installed
+	$(PY) -m pytest -m "not slow"
 
 bench: .venv/.installed
 	$(PY) bench/bench_pipeline.py
