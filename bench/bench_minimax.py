@@ -1,8 +1,8 @@
 """Per-call time of each steering law on random rhombus-cluster cases; exact vs LP speed-up.
 
-Run: /tmp/venv/bin/python bench/bench_minimax.py [n_cases]
+Run: .venv/bin/python bench/bench_minimax.py [n_cases]
 Prints microseconds per call for every law in STEERING_LAWS and `exact_over_lp`, the LP
-min-max time divided by the closed-form min-max time (DESIGN.md expects >= 100).
+min-max time divided by the closed-form min-max time (the goal is >= 100).
 """
 
 from __future__ import annotations
@@ -15,16 +15,16 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout, uninstalled
 from testbed.steering import STEERING_LAWS  # noqa: E402
-from testbed.steering.rhombus import rhombus_jacobian  # noqa: E402
+from testbed.systems.cmg_rhombus import ClusterGeometry, CmgRhombusParams, build  # noqa: E402
 
 
 def random_cases(n: int, seed: int = 0):
     """n (J, Hdot) pairs: random gimbal angles (alpha = 50 deg) and demands of 0.1-10 N m."""
     rng = np.random.default_rng(seed)
-    alpha = np.radians(50.0)
+    geometry = ClusterGeometry.from_model(build(CmgRhombusParams(alpha_deg=50.0), dt=1e-3))
     cases = []
     for _ in range(n):
-        J = rhombus_jacobian(rng.uniform(-np.pi, np.pi, 4), alpha)
+        J = geometry.unit_jacobian(rng.uniform(-np.pi, np.pi, 4))
         cases.append((J, rng.normal(size=3) * 10.0 ** rng.uniform(-1, 1)))
     return cases
 

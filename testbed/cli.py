@@ -7,19 +7,17 @@ line on stderr naming the field and the reason, no traceback, no output file).
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import sys
 import time
 from pathlib import Path
 
+from testbed import sweep_cli  # noqa: F401  (registers `sweep`)
+from testbed.commands import COMMANDS
 from testbed.errors import InputError
+from testbed.registry import discover
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
-
-# Subcommands that live in their own modules: each has `add_parser(subparsers)`, which adds
-# its parser and sets `func=run`, and `run(args) -> exit status`.
-COMMAND_MODULES: tuple[str, ...] = ("testbed.envelope_cli", "testbed.sweep_cli")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -44,8 +42,9 @@ def _parser() -> argparse.ArgumentParser:
     inspect = sub.add_parser("inspect", help="read back a run's entities, time span, metrics and checks")
     inspect.add_argument("rrd")
     inspect.add_argument("--json", action="store_true")
-    for name in COMMAND_MODULES:
-        importlib.import_module(name).add_parser(sub)
+    discover()  # system packages may add subcommands (testbed.commands)
+    for _, add_parser in COMMANDS.items():
+        add_parser(sub)
     return parser
 
 

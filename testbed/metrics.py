@@ -12,7 +12,9 @@ from typing import Callable
 
 import numpy as np
 
+from testbed import pipeline, systems_registry
 from testbed.errors import InputError
+from testbed.registry import Registry
 
 
 @dataclass(frozen=True)
@@ -23,14 +25,14 @@ class Metric:
     compute: Callable
 
 
-METRICS: dict[str, Metric] = {}
+METRICS = Registry("metric")
 
 
 def metric(name: str, applies: Callable = lambda scenario: True):
     """Register `fn(run) -> float` as metric `name` (docstring = its definition)."""
 
     def register(fn):
-        METRICS[name] = Metric(name, (fn.__doc__ or "").strip().splitlines()[0], applies, fn)
+        METRICS.add(name, Metric(name, (fn.__doc__ or "").strip().splitlines()[0], applies, fn))
         return fn
 
     return register
@@ -59,15 +61,11 @@ def evaluate_checks(scenario, values: dict[str, float]) -> list[dict]:
 # --- metrics every free-flying system has ---------------------------------------------------
 
 def _free_flying(scenario) -> bool:
-    from testbed import systems
-
-    return systems.is_free_flying(scenario)
+    return systems_registry.is_free_flying(scenario)
 
 
 def _conserves_momentum(scenario) -> bool:
     """A free body whose actuators are all internal (no ideal external torque)."""
-    from testbed import pipeline
-
     return _free_flying(scenario) and pipeline.output_of("allocator", scenario.stages["allocator"][0]) != "body_torque"
 
 
@@ -95,26 +93,3 @@ def max_omega_error_rad_s(run) -> float:
 def final_omega_rad_s(run) -> float:
     """|w| of the bus at the end of the run [rad/s]."""
     return float(np.linalg.norm(run.recorder["truth/omega"][-1]))
-
-
-# --- CMG cluster ---------------------------------------------------------------------------
-
-def _is_cmg(scenario) -> bool:
-    return scenario.system == "cmg_rhombus"
-
-
-@metric("gimbal_rate_error_rel", applies=lambda s: _is_cmg(s) and s.stages["allocator"][0] != "none")
-def gimbal_rate_error_rel(run) -> float:
-    """max_i max_t |b'_i(t_k+1) - cmd_i(t_k)| / max_t |cmd_i|: servo tracking of the held command, after 0.1 s."""
-    rates = run.recorder["truth/gimbal_rate"][1:]
-    command = run.recorder["allocator/gimbal_rates"][:-1]  # held over (t_k, t_k+1]
-    keep = run.recorder.time[1:] > 0.1
-    scale = np.maximum(np.nanmax(np.abs(command), axis=0), 1e-12)
-    return float(np.nanmax(np.abs(rates[keep] - command[keep]) / scale))
-
-from testbed import metrics_steering  # noqa: E402,F401
-from testbed import metrics_lebedev  # noqa: E402,F401
-
-# issue 5: planar AKOR figures measured in simulation
-from testbed import metrics_planar  # noqa: E402,F401
-from testbed import metrics_gyrostat  # noqa: E402,F401

@@ -9,22 +9,39 @@ what their slot is given, so nothing downstream of the sensor can read the true 
 - allocator  `allocate(t, demand, estimate, actuators) -> dict`
              (key `gimbal_rates` or `body_torque`: what the plant's actuators receive)
 
-Every key a stage returns is recorded under `<slot>/<key>`.
+Every key a stage returns is recorded under `<slot>/<key>`. A stage class may publish
+design data for the other stages with a classmethod `design(params) -> dict` (by
+convention `outputs`: the keys it returns); the `StageContext` carries every slot's
+`StageInfo`, so no stage reads another's parameters. A stage may keep `statistics` (a dict
+of counts over every control step) that metrics read after the run.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
-from typing import Any, Callable
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from testbed import schema
 from testbed.errors import InputError
+from testbed.registry import Registry
 
 SLOTS = ("sensor", "estimator", "law", "allocator")
-_REGISTRY: dict[str, dict[str, tuple[type, Callable]]] = {slot: {} for slot in SLOTS}
+STAGES: dict[str, Registry] = {slot: Registry(slot) for slot in SLOTS}
+
+
+@dataclass(frozen=True)
+class StageInfo:
+    """What the other stages may know of a configured stage: its type and published design data."""
+
+    type: str
+    design: dict = field(default_factory=dict)
+
+    @property
+    def outputs(self) -> frozenset:
+        return frozenset(self.design.get("outputs", ()))
 
 
 @dataclass(frozen=True)
@@ -34,15 +51,20 @@ class StageContext:
     dt: float                   # physics step [s]
     control_period: float       # pipeline sample period [s]
     inertia: np.ndarray         # spacecraft locked inertia about its CoM, body axes [kg m^2]
-    system: Any                 # the plant's static description (e.g. CMG cluster geometry)
-    scenario: Any               # the whole validated scenario, for cross-stage design data
+    description: Any = None     # the plant's static design data (e.g. an actuator cluster's geometry)
+    system: str = ""            # model.system
+    model: Any = None           # the system's validated parameters
+    initial: Any = None         # the scenario's initial state (attitude, rate)
+    integrator: str = "RK4"
+    end_time: float = float("inf")  # time of the run's last sample [s]
+    stages: dict = field(default_factory=dict)  # slot -> StageInfo of every configured stage
 
 
 def stage(slot: str, name: str, params_cls: type | None = None):
     """Register a stage class under `name` in `slot`; `params_cls` is its schema dataclass."""
 
     def register(cls):
-        _REGISTRY[slot][name] = (params_cls or _NoParams, cls)
+        STAGES[slot].add(name, (params_cls or _NoParams, cls))
         cls.slot = slot
         cls.type_name = name
         return cls
@@ -56,7 +78,7 @@ class _NoParams:
 
 
 def names(slot: str) -> list[str]:
-    return sorted(_REGISTRY[slot])
+    return STAGES[slot].names()
 
 
 def load_params(slot: str, config: dict | None, path: str):
@@ -65,20 +87,26 @@ def load_params(slot: str, config: dict | None, path: str):
     name = config.pop("type", None)
     if name is None:
         raise InputError(f"{path}.type", f"is required (one of {', '.join(names(slot))})")
-    if name not in _REGISTRY[slot]:
-        raise InputError(f"{path}.type", f"unknown {slot} {name!r} (one of {', '.join(names(slot))})")
-    params_cls, _ = _REGISTRY[slot][name]
+    params_cls, _ = STAGES[slot].lookup(name, f"{path}.type")
     return name, schema.load(params_cls, config, path)
+
+
+def stage_class(slot: str, name: str) -> type:
+    return STAGES[slot][name][1]
 
 
 def output_of(slot: str, name: str) -> str | None:
     """The command key a registered stage produces (allocators: `body_torque`, `gimbal_rates`, ...)."""
-    return getattr(_REGISTRY[slot][name][1], "output", None)
+    return getattr(stage_class(slot, name), "output", None)
+
+
+def stage_info(slot: str, name: str, params) -> StageInfo:
+    design = getattr(stage_class(slot, name), "design", None)
+    return StageInfo(name, design(params) if design is not None else {})
 
 
 def build(slot: str, name: str, params, ctx: StageContext):
-    _, cls = _REGISTRY[slot][name]
-    return cls(params, ctx)
+    return stage_class(slot, name)(params, ctx)
 
 
 class Pipeline:
@@ -111,3 +139,5 @@ class Pipeline:
 def params_dict(params) -> dict:
     """A stage's parameters as a plain mapping (for the run summary)."""
     return dataclasses.asdict(params) if dataclasses.is_dataclass(params) else {}
+
+

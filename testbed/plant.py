@@ -1,9 +1,10 @@
 """The MuJoCo truth as the runner sees it: step, read true signals, apply commands.
 
-A `Plant` wraps a domain object (testbed.domains: the Python that knows a model's joints by
-name) and its `MjData`. Only the sensor stage and the trace read `truth()`; controllers get
-`actuator_state()` (what encoders and tachometers on the actuators report) and their own
-measurements.
+A `Plant` owns a compiled model and its `MjData`; the base class reads a free-flying bus
+through `testbed.free_bus.FreeBus`, and each system's plant (testbed/systems/<name>/) adds
+its own joints and actuators. Only the sensor stage and the trace read `truth()`;
+controllers get `actuator_state()` (what encoders and tachometers on the actuators report)
+and their own measurements.
 """
 
 from __future__ import annotations
@@ -23,9 +24,9 @@ class SimulationDiverged(RuntimeError):
 class Plant:
     """A compiled model with a free-flying body named `bus`, driven by ideal body torques."""
 
-    def __init__(self, domain):
-        self.domain = domain
-        self.model = domain.model
+    def __init__(self, bus):
+        self.bus = bus  # addresses of the free bus (FreeBus) or the system's own equivalent
+        self.model = bus.model
         self.data = mujoco.MjData(self.model)
         # MuJoCo resets the state (or zeroes the control) on these and carries on: we stop.
         self._bad = [(w, self.data.warning[w]) for w in (
@@ -40,20 +41,20 @@ class Plant:
 
     def omega(self) -> np.ndarray:
         """Body-frame angular velocity of the bus."""
-        return self.domain.body_omega(self.data)
+        return self.bus.body_omega(self.data)
 
     def quat(self) -> np.ndarray:
         """Bus attitude (w, x, y, z), body to world."""
-        return self.domain.body_quat(self.data)
+        return self.bus.body_quat(self.data)
 
     def angular_momentum_world(self) -> np.ndarray:
         """Total angular momentum of the whole spacecraft about its CoM, world frame."""
-        return self.domain.total_angular_momentum_world(self.data)
+        return self.bus.total_angular_momentum_world(self.data)
 
     def locked_inertia(self) -> np.ndarray:
         """Inertia of the whole spacecraft, joints locked, about its CoM, body axes, now."""
         mujoco.mj_forward(self.model, self.data)
-        return self.domain.system_inertia(self.data)
+        return self.bus.system_inertia(self.data)
 
     def kinetic_energy(self) -> float:
         """Total kinetic energy 1/2 qvel' M(q) qvel at the current state [J]."""
@@ -84,7 +85,7 @@ class Plant:
 
     # --- what subclasses refine ---------------------------------------------------------
     def initialise(self, initial) -> None:
-        self.domain.set_free_joint_state(self.data, initial.omega, initial.quat)
+        self.bus.set_free_joint_state(self.data, initial.omega, initial.quat)
         mujoco.mj_forward(self.model, self.data)
 
     def truth(self) -> dict[str, np.ndarray]:
@@ -108,15 +109,15 @@ class Plant:
         """Body torque on the bus [N m, body axes]; a plant with other actuators extends this."""
         torque = command.get("body_torque")
         if torque is not None:
-            self.domain.set_body_torque(self.data, torque)
+            self.bus.set_body_torque(self.data, torque)
 
     def description(self):
-        """Static design data controllers may use (e.g. the CMG cluster geometry)."""
+        """Static design data controllers may use (e.g. an actuator cluster's geometry)."""
         return None
 
     def scene(self) -> dict:
         """What the 3D view draws: the bus box half sizes (from its first box geom) [m]."""
-        bus = self.domain.bus_body_id
+        bus = self.bus.bus_body_id
         boxes = [g for g in range(self.model.ngeom)
                  if self.model.geom_bodyid[g] == bus and self.model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX]
         half = self.model.geom_size[boxes[0]] if boxes else [0.5] * 3

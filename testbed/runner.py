@@ -10,25 +10,32 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import testbed.stages  # noqa: F401  (registers the stages)
-from testbed import metrics, references_registry, systems, trace
+from testbed import metrics, references_registry, systems_registry, trace
 from testbed.errors import InputError
-from testbed.pipeline import Pipeline, StageContext, params_dict
+from testbed.pipeline import SLOTS, Pipeline, StageContext, params_dict, stage_info
 from testbed.plant import SimulationDiverged
 from testbed.recorder import Recorder
 
 
 @dataclass
 class RunData:
-    """What metrics see after a run."""
+    """What metrics see after a run: the scenario, the trace, each stage's declared
+    statistics (slot -> counts over every control step, e.g. the steering extremes) and
+    the plant's static design data (`Plant.description`)."""
 
     scenario: object
     recorder: Recorder
-    plant: object
+    statistics: dict
+    description: object
     momentum_scale: float
-    # slot -> a stage's own counts over every control step (e.g. the steering extremes);
-    # metrics also cache derived figures here
-    extra: dict = field(default_factory=dict)
+    # figures derived from the trace that several metrics share (see `shared`)
+    _shared: dict = field(default_factory=dict)
+
+    def shared(self, key: str, compute):
+        """compute() once per run for metrics that share an expensive derived figure."""
+        if key not in self._shared:
+            self._shared[key] = compute()
+        return self._shared[key]
 
 
 @dataclass
@@ -56,11 +63,10 @@ class RunResult:
 def prepare(scenario):
     """Build the plant, the pipeline and the reference: every design-time check happens here."""
     references_registry.check_system(scenario)
-    plant = systems.make_plant(scenario)
+    plant = systems_registry.make_plant(scenario)
     plant.record_energy = scenario.stages["allocator"][0] == "none"
     plant.initialise(scenario.initial)
-    ctx = StageContext(dt=scenario.sim.dt_s, control_period=scenario.sim.control_period_s,
-                       inertia=plant.locked_inertia(), system=plant.description(), scenario=scenario)
+    ctx = stage_context(scenario, plant.locked_inertia(), plant.description())
     pipeline = Pipeline.from_config(scenario.stages, ctx)
     output = getattr(pipeline.allocator, "output", None)
     if output is not None and output not in plant.actuators:
@@ -68,6 +74,16 @@ def prepare(scenario):
                          f"which model.system {scenario.system} does not have")
     reference = references_registry.prepare(scenario, plant) if scenario.reference else None
     return plant, pipeline, reference
+
+
+def stage_context(scenario, inertia, description=None) -> StageContext:
+    """What the stages of `scenario` may know at construction (testbed.pipeline.StageContext)."""
+    sim = scenario.sim
+    return StageContext(dt=sim.dt_s, control_period=sim.control_period_s, inertia=inertia,
+                        description=description, system=scenario.system, model=scenario.model,
+                        initial=scenario.initial, integrator=sim.integrator,
+                        end_time=round(sim.duration_s / sim.control_period_s) * sim.control_period_s,
+                        stages={slot: stage_info(slot, *scenario.stages[slot]) for slot in SLOTS})
 
 
 def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = False) -> RunResult:
@@ -87,9 +103,9 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     if recorder.count:
         for key, values in plant.derived_signals(recorder).items():
             recorder.add_series(key, values)
-    data = RunData(scenario, recorder, plant, momentum_scale,
-                   {slot: stage.statistics for slot, stage in pipeline.stages().items()
-                    if hasattr(stage, "statistics")})
+    data = RunData(scenario, recorder, {slot: stage.statistics for slot, stage in pipeline.stages().items()
+                                        if hasattr(stage, "statistics")},
+                   plant.description(), momentum_scale)
     if reference is not None and recorder.count > 1:
         omega_ref = reference(recorder.time, recorder)
         recorder.add_series("reference/omega", omega_ref)

@@ -4,7 +4,7 @@ Layout (every key optional unless marked; units are in the key names, SI and rad
 
     name: str                       # required
     description: str
-    model: {system: NAME, ...}      # the physical system and its parameters (testbed.systems)
+    model: {system: NAME, ...}      # required: the physical system and its parameters (testbed.systems)
     initial: {omega_deg_s | omega_rad_s: [3], quat: [w, x, y, z]}
     sim: {duration_s (required), dt_s, integrator, control_period_s, trace_period_s}
     pipeline: {sensor|estimator|law|allocator: {type: NAME, ...params}}   (testbed.pipeline)
@@ -26,9 +26,11 @@ from typing import Any, Literal
 import numpy as np
 import yaml
 
-from testbed import pipeline, schema
+from testbed import metrics, pipeline, references_registry, schema, systems_registry
 from testbed.errors import InputError
+from testbed.registry import discover
 from testbed.schema import param
+from testbed.sweep_spec import load_spec
 
 SCENARIO_DIR = Path(__file__).resolve().parent.parent / "scenarios"
 
@@ -97,7 +99,7 @@ class CheckLimit:
 class _RawScenario:
     name: str
     description: str = ""
-    model: dict[str, Any] = param({"system": "satellite"})
+    model: dict[str, Any]
     initial: InitialState = field(default_factory=InitialState)
     sim: SimConfig = param()
     pipeline: dict[str, Any] = param({})
@@ -124,15 +126,11 @@ class Scenario:
 
 def parse(data: dict, source: str = "") -> Scenario:
     """Validate a raw scenario mapping (see module doc) into a `Scenario`."""
-    import testbed.stages  # noqa: F401  (registers the stages)
-    from testbed import references_registry, systems
-
+    discover()
     raw = schema.load(_RawScenario, data)
     if raw.sweep is not None:  # the block itself is checked here; its cases by testbed.sweep
-        from testbed import sweep
-
-        sweep.load_spec(raw.sweep)
-    system_name, model = systems.load_params(raw.model, "model")
+        load_spec(raw.sweep)
+    system_name, model = systems_registry.load_params(raw.model, "model")
     unknown = set(raw.pipeline) - set(pipeline.SLOTS)
     if unknown:
         key = sorted(unknown)[0]
@@ -144,9 +142,7 @@ def parse(data: dict, source: str = "") -> Scenario:
         reference = references_registry.load_params(raw.reference, "reference")
     scenario = Scenario(raw.name, raw.description, system_name, model, raw.initial, raw.sim,
                         stages, reference, raw.checks, source)
-    from testbed import metrics  # after the scenario exists: checks name metrics it produces
-
-    metrics.validate_checks(scenario)
+    metrics.validate_checks(scenario)  # after the scenario exists: checks name metrics it produces
     return scenario
 
 

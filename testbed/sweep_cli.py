@@ -17,11 +17,13 @@ import sys
 import time
 from pathlib import Path
 
+from testbed.commands import command
 from testbed.errors import InputError
 
 EXIT_OK, EXIT_FAILED = 0, 1
 
 
+@command("sweep")
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser("sweep", help="run a scenario's sweep cases in parallel and write a CSV table")
     p.add_argument("scenario", help="scenario file or name in scenarios/ (with a sweep: block)")
@@ -54,7 +56,8 @@ class _Progress:
 def load_cases(name: str, overrides: list[str]):
     """(scenario name, swept fields, cases) of a sweep scenario; InputError if anything is bad."""
     from testbed.scenario import apply_override, read_yaml, resolve_path
-    from testbed.sweep import expand, load_spec
+    from testbed.sweep import expand
+    from testbed.sweep_spec import load_spec
 
     path = resolve_path(name)
     data = read_yaml(path)

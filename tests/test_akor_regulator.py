@@ -5,7 +5,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.linalg import solve_continuous_are
 
-from testbed.akor_regulator import (
+from testbed.systems.planar.akor_regulator import (
     closed_loop_matrix,
     complex_roots,
     control,

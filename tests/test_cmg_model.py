@@ -5,9 +5,21 @@ import mujoco
 import numpy as np
 import pytest
 
-from testbed.domains import cmg_rhombus, satellite
-from testbed.domains.cmg_rhombus import ClusterGeometry, CmgRhombus, CmgRhombusParams
 from testbed.errors import InputError
+from testbed.free_bus import FreeBus
+from testbed.registry import discover
+from testbed.systems import cmg_rhombus, satellite
+from testbed.systems.cmg_rhombus import ClusterGeometry, CmgRhombus, CmgRhombusParams
+from testbed.systems.cmg_rhombus.cluster import GIMBALS, ROTORS, rhombus_axes
+from testbed.systems_registry import load_params
+
+DT = 1e-3
+
+
+def load_scenario_with(overrides: dict):
+    from testbed.scenario import load_scenario
+
+    return load_scenario("cmg_open_loop", [f"{k}={v}" for k, v in overrides.items()])
 
 ZERO_MOMENTUM_SET = np.radians([45.0, -45.0, -45.0, 45.0])
 
@@ -34,7 +46,7 @@ def seeds_jacobian(h, alpha, beta):
 @pytest.mark.parametrize("alpha_deg", [30.0, 54.7356, 60.0])
 def test_geometry_from_model_equals_seeds_eq15_and_eq18(alpha_deg):
     alpha = np.radians(alpha_deg)
-    model = cmg_rhombus.build(CmgRhombusParams(alpha=alpha, rotor_momentum=37.0))
+    model = cmg_rhombus.build(CmgRhombusParams(alpha_deg=alpha_deg, rotor_momentum_nms=37.0), DT)
     geometry = ClusterGeometry.from_model(model)
     assert geometry.h == pytest.approx(37.0, rel=1e-12)
     assert geometry.alpha == pytest.approx(alpha, abs=1e-12)
@@ -50,7 +62,7 @@ def test_geometry_from_model_equals_seeds_eq15_and_eq18(alpha_deg):
 
 def test_singular_and_zero_momentum_gimbal_sets():
     alpha = np.radians(54.7356)
-    geometry = ClusterGeometry.from_model(cmg_rhombus.build(CmgRhombusParams(alpha=alpha)))
+    geometry = ClusterGeometry.from_model(cmg_rhombus.build(CmgRhombusParams(alpha_deg=np.degrees(alpha)), DT))
     singular_values = np.linalg.svd(geometry.unit_jacobian(np.zeros(4)), compute_uv=False)
     assert np.sum(singular_values > 1e-12) == 1  # beta = 0: every column is along +-z
     assert geometry.singularity_measure(np.zeros(4)) < 1e-12
@@ -61,20 +73,20 @@ def test_singular_and_zero_momentum_gimbal_sets():
 
 
 def test_compiled_gimbal_axes_lie_in_bus_plane_along_rhombus_sides():
-    model = cmg_rhombus.build(CmgRhombusParams(alpha=np.radians(30.0)))
+    model = cmg_rhombus.build(CmgRhombusParams(alpha_deg=30.0), DT)
     data = mujoco.MjData(model)
     cmg = CmgRhombus(model)
     tilt = np.array([np.cos(0.4), np.sin(0.4), 0.0, 0.0])  # bus rolled 0.8 rad about x
     cmg.initialise(data, np.zeros(3), tilt, beta0=[0.3, -1.1, 2.0, 0.7])
     bus_rot = data.xmat[cmg.bus_body_id].reshape(3, 3)
     gimbal_axes_body = np.array([bus_rot.T @ data.xaxis[model.joint(n).id]
-                                 for n in cmg_rhombus.GIMBALS])
+                                 for n in GIMBALS])
     np.testing.assert_allclose(gimbal_axes_body[:, 2], 0.0, atol=1e-14)
     np.testing.assert_allclose(np.cross(gimbal_axes_body[0], gimbal_axes_body[2]), 0, atol=1e-14)
     np.testing.assert_allclose(np.cross(gimbal_axes_body[1], gimbal_axes_body[3]), 0, atol=1e-14)
     # spin axes from MuJoCo's kinematics equal the geometry's cos b e + sin b s z
     spin_axes_body = np.array([bus_rot.T @ data.xaxis[model.joint(n).id]
-                               for n in cmg_rhombus.ROTORS])
+                               for n in ROTORS])
     np.testing.assert_allclose(spin_axes_body, cmg.geometry.spin_axes(cmg.gimbal_angles(data)),
                                atol=1e-14)
 
@@ -82,16 +94,17 @@ def test_compiled_gimbal_axes_lie_in_bus_plane_along_rhombus_sides():
 def analytic_system_inertia(p, beta):
     """Bus + CMGs at d e_i (parallel axis: sum_i m d^2 (1 - e_i e_i^T) = 4 m d^2
     diag(sin^2 a, cos^2 a, 1)) + each gimbal's and rotor's inertia turned by beta_i."""
-    e, g, sz = cmg_rhombus.rhombus_axes(p.alpha)
-    js = p.rotor_momentum / p.rotor_speed
+    alpha = np.radians(p.alpha_deg)
+    e, g, sz = rhombus_axes(alpha)
+    js = p.rotor_momentum_nms / (p.rotor_speed_rpm * np.pi / 30.0)
     jt = p.rotor_transverse_ratio * js
-    mass = p.gimbal_mass + p.rotor_mass
-    s2, c2 = np.sin(p.alpha) ** 2, np.cos(p.alpha) ** 2
-    total = np.diag(p.bus_inertia) + 4 * mass * p.cmg_distance**2 * np.diag([s2, c2, 1.0])
+    mass = p.gimbal_mass_kg + p.rotor_mass_kg
+    s2, c2 = np.sin(alpha) ** 2, np.cos(alpha) ** 2
+    total = np.diag(p.inertia_kg_m2) + 4 * mass * p.cmg_distance_m**2 * np.diag([s2, c2, 1.0])
     for i, b in enumerate(beta):
         spin = np.cos(b) * e[i] + np.sin(b) * sz[i]
         third = np.cos(b) * sz[i] - np.sin(b) * e[i]
-        ig = p.gimbal_inertia
+        ig = p.gimbal_inertia_kg_m2
         total += ig[0] * np.outer(g[i], g[i]) + ig[1] * np.outer(spin, spin) \
             + ig[2] * np.outer(third, third)
         total += jt * np.eye(3) + (js - jt) * np.outer(spin, spin)
@@ -99,8 +112,8 @@ def analytic_system_inertia(p, beta):
 
 
 def test_system_com_at_origin_and_inertia_matches_analytic():
-    params = CmgRhombusParams(bus_inertia=(700.0, 900.0, 1300.0), rotor_transverse_ratio=0.55)
-    model = cmg_rhombus.build(params)
+    params = CmgRhombusParams(inertia_kg_m2=[700.0, 900.0, 1300.0], rotor_transverse_ratio=0.55)
+    model = cmg_rhombus.build(params, DT)
     data = mujoco.MjData(model)
     cmg = CmgRhombus(model)
     beta = np.array([0.2, 1.3, -0.7, 2.9])
@@ -111,7 +124,7 @@ def test_system_com_at_origin_and_inertia_matches_analytic():
 
 
 def test_internal_momentum_at_rest_equals_cluster_momentum():
-    model = cmg_rhombus.build(CmgRhombusParams())
+    model = cmg_rhombus.build(CmgRhombusParams(), DT)
     data = mujoco.MjData(model)
     cmg = CmgRhombus(model)
     beta = np.array([0.4, -0.9, 1.7, 0.1])
@@ -131,7 +144,7 @@ def test_internal_momentum_at_rest_equals_cluster_momentum():
 def run_sinusoidal_gimbals(dt, duration, amplitude, frequency_hz, omega0):
     """Simulate with gimbal-rate commands amplitude sin(2 pi f t); return times, commanded
     and measured gimbal rates, and the world momentum at start and end."""
-    model = cmg_rhombus.build(CmgRhombusParams(timestep=dt))
+    model = cmg_rhombus.build(CmgRhombusParams(), dt)
     data = mujoco.MjData(model)
     cmg = CmgRhombus(model)
     cmg.initialise(data, omega0, [1.0, 0.0, 0.0, 0.0])
@@ -166,9 +179,9 @@ def test_gimbal_servo_tracks_rate_and_momentum_is_conserved(dt):
 
 def test_servo_gains_scale_with_gimbal_axis_inertia():
     for gimbal_inertia in [(0.03, 0.02, 0.02), (0.3, 0.2, 0.2)]:
-        params = CmgRhombusParams(gimbal_inertia=gimbal_inertia, servo_natural_frequency=250.0,
+        params = CmgRhombusParams(gimbal_inertia_kg_m2=list(gimbal_inertia), servo_natural_frequency_rad_s=250.0,
                                   servo_damping_ratio=0.8)
-        model = cmg_rhombus.build(params)
+        model = cmg_rhombus.build(params, DT)
         # inertia about the gimbal axis as MuJoCo sees it: the mass-matrix diagonal entry
         data = mujoco.MjData(model)
         mujoco.mj_forward(model, data)
@@ -183,22 +196,39 @@ def test_servo_gains_scale_with_gimbal_axis_inertia():
 
 
 @pytest.mark.parametrize("field, value", [
-    ("alpha", 1.7), ("rotor_momentum", -1.0), ("bus_inertia", (100.0, 100.0, 300.0)),
-    ("servo_natural_frequency", 2000.0), ("integrator", "RK45"), ("beta0", (0.0, 1.0)),
-    ("rotor_transverse_ratio", 0.3), ("gimbal_inertia", (0.05, 0.01, 0.03))])
+    ("alpha_deg", 97.4), ("rotor_momentum_nms", -1.0), ("inertia_kg_m2", [100.0, 100.0, 300.0]),
+    ("gimbal_angles_deg", [0.0, 1.0]), ("rotor_transverse_ratio", 0.3),
+    ("gimbal_inertia_kg_m2", [0.05, 0.01, 0.03])])
 def test_bad_parameters_raise_input_error(field, value):
+    discover()
     with pytest.raises(InputError) as error:
-        cmg_rhombus.build(CmgRhombusParams(**{field: value}))
-    assert error.value.field == field
+        load_params({"system": "cmg_rhombus", field: value}, "model")
+    assert error.value.field == f"model.{field}"
+
+
+@pytest.mark.parametrize("field, dt, value", [
+    ("servo_natural_frequency_rad_s", 1e-3, 2000.0), ("rotor_speed_time_constant_s", 0.002, 0.003)])
+def test_parameters_too_fast_for_the_step_are_refused_at_build(field, dt, value):
+    """RK4 bounds: w_n dt <= 0.7 for the gimbal servo, dt / tau <= 0.5 for the rotor loop."""
+    with pytest.raises(InputError) as error:
+        cmg_rhombus.build(CmgRhombusParams(**{field: value}), dt)
+    assert error.value.field == f"model.{field}"
+
+
+def test_unknown_integrator_is_refused():
+    with pytest.raises(InputError) as error:
+        load_scenario_with({"sim.integrator": "RK45"})
+    assert error.value.field == "sim.integrator"
 
 
 def test_satellite_constant_torque_from_rest_follows_euler():
     """About a principal axis from rest, I w' = M gives w = M t / I and angle M t^2 / (2 I)."""
-    params = satellite.SatelliteParams(bus_inertia=(300.0, 500.0, 600.0), timestep=0.01)
-    model = satellite.build(params)
+    params = satellite.SatelliteParams(inertia_kg_m2=[300.0, 500.0, 600.0])
+    model = satellite.build(params, 0.01)
     data = mujoco.MjData(model)
-    sat = satellite.Satellite(model)
-    sat.initialise(data, np.zeros(3), [1.0, 0.0, 0.0, 0.0])
+    sat = FreeBus(model)
+    sat.set_free_joint_state(data, np.zeros(3), [1.0, 0.0, 0.0, 0.0])
+    mujoco.mj_forward(model, data)
     np.testing.assert_allclose(sat.system_inertia(data), np.diag([300.0, 500.0, 600.0]),
                                rtol=1e-14)
     sat.set_body_torque(data, [0.0, 2.0, 0.0])
@@ -216,7 +246,7 @@ def test_satellite_constant_torque_from_rest_follows_euler():
 def test_readouts_after_step_describe_the_new_state_and_leave_trajectory_unchanged():
     """After mj_step, data's kinematics belong to the step's start; the read-outs refresh
     them. Checked against mj_forward on a copy of the new state, and by bit-identical runs."""
-    model = cmg_rhombus.build(CmgRhombusParams())
+    model = cmg_rhombus.build(CmgRhombusParams(), DT)
     cmg = CmgRhombus(model)
 
     def run(read_every_step):

@@ -8,7 +8,7 @@ from scipy.integrate import solve_ivp
 from testbed.errors import InputError
 from testbed.guidance.program_trajectory import ProgramTrajectory
 from testbed.guidance.tracking_law import TrackingLaw
-from testbed.quaternion import quat_angle, quat_conj, quat_from_axis_angle, quat_mul, quat_rotate
+from testbed.math.quaternion import quat_angle, quat_conj, quat_from_axis_angle, quat_mul, quat_rotate
 
 # A non-diagonal inertia so products of inertia and gyroscopic coupling are exercised [kg m²].
 INERTIA = np.array([[120.0, 5.0, -3.0], [5.0, 90.0, 4.0], [-3.0, 4.0, 60.0]])

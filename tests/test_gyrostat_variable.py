@@ -1,5 +1,5 @@
 """Variable-structure gyrostat of seed 002 (models/gyrostat_variable.xml) and the paper's
-z-x-z Euler angles (testbed/euler_angles.py), checked against hand numbers and MuJoCo."""
+z-x-z Euler angles (testbed/math/euler_angles.py), checked against hand numbers and MuJoCo."""
 
 import mujoco
 import numpy as np
@@ -8,10 +8,12 @@ from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
 from testbed import schema
-from testbed.domains import gyrostat_variable as gv
+from testbed.model_files import MODELS_DIR
+from testbed.systems.gyrostat_variable import model as gv
+from testbed.systems.gyrostat_variable.plant import VariableGyrostatPlant
 from testbed.errors import InputError
-from testbed.euler_angles import angle_rates, body_rates, euler_from_quat, quat_from_euler
-from testbed.quaternion import quat_from_axis_angle, quat_mul, quat_rotate
+from testbed.math.euler_angles import angle_rates, body_rates, euler_from_quat, quat_from_euler
+from testbed.math.quaternion import quat_from_axis_angle, quat_mul, quat_rotate
 
 PARAMS = gv.VariableGyrostatParams()
 
@@ -50,7 +52,7 @@ def model():
 
 
 def test_xml_defaults_are_the_built_defaults(model):
-    raw = mujoco.MjModel.from_xml_path(str(gv.XML))
+    raw = mujoco.MjModel.from_xml_path(str(MODELS_DIR / gv.XML_FILE))
     for field in ("body_mass", "body_inertia", "body_ipos", "body_pos", "actuator_gainprm", "actuator_biasprm"):
         np.testing.assert_allclose(getattr(raw, field), getattr(model, field), rtol=1e-12, atol=1e-12, err_msg=field)
 
@@ -92,7 +94,7 @@ def test_carrier_inertia_about_O_matches_paper(model, t):
 
 @pytest.mark.parametrize("sigma", [0.0, 1.0, 2.5])
 def test_rotor_inertia_about_O_matches_paper(model, sigma):
-    gyro = gv.VariableGyrostat(model, PARAMS)
+    gyro = VariableGyrostatPlant(model, PARAMS)
     gyro.data.qpos[model.joint("rotor_hinge").qposadr[0]] = sigma
     gyro.data.qpos[3:7] = quat_from_axis_angle([0.6, 0.0, 0.8], 0.7)  # any carrier attitude
     mujoco.mj_kinematics(model, gyro.data)
@@ -102,7 +104,7 @@ def test_rotor_inertia_about_O_matches_paper(model, sigma):
 
 
 def test_prescribed_motion_is_tracked_and_momentum_conserved(model):
-    gyro = gv.VariableGyrostat(model, PARAMS)
+    gyro = VariableGyrostatPlant(model, PARAMS)
     gyro.reset(omega_body=[0.05, 0.03, 0.2])
     momentum0 = gyro.angular_momentum_world()
     worst = {"rod": 0.0, "rotor": 0.0}
@@ -110,7 +112,7 @@ def test_prescribed_motion_is_tracked_and_momentum_conserved(model):
         gyro.step(50)
         for name, err in gyro.tracking_error().items():
             worst[name] = max(worst[name], abs(err))
-    assert gyro.data.time == pytest.approx(10.0)
+    assert gyro.time == pytest.approx(10.0)
     # Measured: rod 1.8e-5 rad, rotor 1.1e-7 rad (wn = 50 rad/s, integrated reference angles).
     assert worst["rod"] < 5e-5 and worst["rotor"] < 5e-6
     # Servos are internal torques: total momentum about the CoM is conserved (RK4).

@@ -7,9 +7,10 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from testbed import schema
-from testbed.domains import gyrostat_pair as gp
+from testbed.systems.gyrostat_pair import model as gp
+from testbed.systems.gyrostat_pair.plant import GyrostatPairPlant
 from testbed.errors import InputError
-from testbed.invariant_manifold_observer import InvariantManifoldObserver
+from testbed.systems.gyrostat_pair.observer import InvariantManifoldObserver
 
 # Scenarios (the paper gives no numbers): A3 largest -> arctan form (11), A3 intermediate ->
 # log form (12); one gyrostatic moment, one leader start, observer started off the truth.
@@ -154,7 +155,7 @@ def test_synchronisation_law_15(form):
 
 def _pair(form):
     params = schema.load(gp.GyrostatPairParams, {"inertia_kg_m2": CASES[form]})
-    return gp.GyrostatPair(gp.build(params), params)
+    return GyrostatPairPlant(gp.build(params), params)
 
 
 def test_pair_model_has_the_paper_inertias():
@@ -191,14 +192,14 @@ def test_mujoco_pair_synchronises_like_the_reference(form):
     obs = InvariantManifoldObserver(CASES[form], LAMBDA, GAMMA)
     ref = _sync_reference(CASES[form], 16.0)
     worst_lambda = worst_leader = worst_follower = 0.0
-    while pair.data.time < 16.0 - 1e-9:
-        w, p, q = pair.omega("leader"), pair.omega("follower"), pair.moment("follower")
-        pair.command_follower(obs.synchronisation_law(w[0], w[1], p, q))  # known: w1, w2, lambda
+    while pair.time < 16.0 - 1e-9:
+        w, p, q = pair.role_omega("leader"), pair.role_omega("follower"), pair.moment("follower")
+        pair.apply({"follower_moment_rate": obs.synchronisation_law(w[0], w[1], p, q)})  # known: w1, w2, lambda
         pair.step(5)
-        s = ref.sol(pair.data.time)
+        s = ref.sol(pair.time)
         worst_lambda = max(worst_lambda, np.abs(pair.moment("leader") - LAMBDA).max())
-        worst_leader = max(worst_leader, np.abs(pair.omega("leader") - s[:3]).max())
-        worst_follower = max(worst_follower, np.abs(pair.omega("follower") - s[3:6]).max())
+        worst_leader = max(worst_leader, np.abs(pair.role_omega("leader") - s[:3]).max())
+        worst_follower = max(worst_follower, np.abs(pair.role_omega("follower") - s[3:6]).max())
     # Measured: lambda held to 7e-6 / 1.4e-5 N m s (velocity-servo residual J w'/kv),
     # leader rates to 2e-6 / 4e-6 rad/s, follower to 8.9e-4 / 1.7e-4 rad/s (arctan / log).
     # The follower's error is first order in the control period (zero-order hold of q'):
@@ -206,5 +207,5 @@ def test_mujoco_pair_synchronises_like_the_reference(form):
     assert worst_lambda < 3e-5
     assert worst_leader < 2e-5
     assert worst_follower < 2e-3
-    gap = np.linalg.norm(pair.omega("leader") - pair.omega("follower"))
+    gap = np.linalg.norm(pair.role_omega("leader") - pair.role_omega("follower"))
     assert gap < 5e-3 * np.linalg.norm(W0 - P0)

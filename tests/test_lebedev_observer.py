@@ -6,7 +6,7 @@ from scipy.integrate import solve_ivp
 from scipy.signal import place_poles
 
 from testbed.errors import InputError
-from testbed.lebedev_observer import (
+from testbed.observers.lebedev_observer import (
     LebedevObserver,
     check_gains,
     check_observable,
@@ -198,13 +198,14 @@ def test_section_6_example_converges_as_measured():
 def test_sampled_stages_on_paper_example():
     # The project's estimator and law stages (gyro sample held over 0.1 s, RK4 substeps)
     # driven by an independent RK4 integration of Euler's equations as the truth.
-    from testbed.pipeline import StageContext, build
+    from testbed.pipeline import build
+    from testbed.runner import stage_context
     from testbed.scenario import load_scenario
 
     dt = 0.1
     scenario = load_scenario("lebedev_spinup_ideal", [f"sim.dt_s={dt}", f"sim.control_period_s={dt}",
                                                       f"sim.trace_period_s={dt}"])
-    ctx = StageContext(dt=dt, control_period=dt, inertia=np.diag(SKYLAB), system=None, scenario=scenario)
+    ctx = stage_context(scenario, np.diag(SKYLAB))
     estimator = build("estimator", *scenario.stages["estimator"], ctx)
     law = build("law", *scenario.stages["law"], ctx)
     ix, iy, iz = SKYLAB

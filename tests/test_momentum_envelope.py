@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from testbed.errors import InputError
-from testbed.guidance.momentum_envelope import (
+from testbed.systems.cmg_rhombus.momentum_envelope import (
     EXTERNAL,
     envelope_points,
     fibonacci_sphere,

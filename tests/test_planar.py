@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from testbed import planar_figures as fig
+from testbed.systems.planar import figures as fig
 from testbed.cli import main
 from testbed.runner import run_scenario
 from testbed.scenario import load_scenario

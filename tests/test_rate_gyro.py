@@ -23,7 +23,7 @@ class _Body:
 
 def _gyro(dt=0.01, control=0.1, **params):
     p = schema.load(RateGyroParams, {"axis": AXIS, **params}, "pipeline.sensor")
-    ctx = StageContext(dt=dt, control_period=control, inertia=np.eye(3), system=None, scenario=None)
+    ctx = StageContext(dt=dt, control_period=control, inertia=np.eye(3))
     return RateGyro(p, ctx)
 
 

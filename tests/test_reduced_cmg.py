@@ -1,13 +1,13 @@
-"""The reduced CMG model (testbed/references/reduced_cmg.py) against the MuJoCo truth and
+"""The reduced CMG model (testbed/systems/cmg_rhombus/reduced_model.py) against the MuJoCo truth and
 against MuJoCo's mass matrix and momentum bookkeeping."""
 
 import mujoco
 import numpy as np
 import pytest
 
-from testbed.domains import cmg_rhombus
-from testbed.domains.cmg_rhombus import CmgRhombus, CmgRhombusParams
-from testbed.references.reduced_cmg import (
+from testbed.systems import cmg_rhombus
+from testbed.systems.cmg_rhombus import CmgRhombus, CmgRhombusParams
+from testbed.systems.cmg_rhombus.reduced_model import (
     CmgMassModel, reduced_cmg_omega, textbook_cmg_omega)
 
 # different amplitude and frequency per gimbal, so beta(t) is not periodic as a whole
@@ -18,7 +18,7 @@ OMEGA0 = np.array([0.01, -0.02, 0.015])  # rad/s
 
 def simulate_truth(dt, duration):
     """MuJoCo run with sinusoidal gimbal-rate commands; histories sampled every step."""
-    model = cmg_rhombus.build(CmgRhombusParams(timestep=dt))
+    model = cmg_rhombus.build(CmgRhombusParams(), dt)
     data = mujoco.MjData(model)
     cmg = CmgRhombus(model)
     cmg.initialise(data, OMEGA0, [1.0, 0.0, 0.0, 0.0])
@@ -60,9 +60,8 @@ def test_reduced_model_matches_mujoco(dt):
 
 
 def test_mass_model_matches_mujoco_mass_matrix_and_momentum():
-    model = cmg_rhombus.build(CmgRhombusParams(alpha=np.radians(40.0),
-                                               rotor_transverse_ratio=0.7,
-                                               gimbal_inertia=(0.05, 0.03, 0.04)))
+    model = cmg_rhombus.build(CmgRhombusParams(alpha_deg=40.0, rotor_transverse_ratio=0.7,
+                                               gimbal_inertia_kg_m2=[0.05, 0.03, 0.04]), 1e-3)
     data = mujoco.MjData(model)
     cmg = CmgRhombus(model)
     mass_model = CmgMassModel.from_model(model)
@@ -90,7 +89,7 @@ def test_mass_model_matches_mujoco_mass_matrix_and_momentum():
 def test_reduced_model_with_frozen_gimbals_is_torque_free_rigid_body():
     """With beta, beta', Omega constant, L_b' = -w x L_b conserves |L_b| and the kinetic
     energy of the relative motion E = 1/2 (L_b - H)^T I^-1 (L_b - H) (gyrostat integrals)."""
-    model = cmg_rhombus.build(CmgRhombusParams())
+    model = cmg_rhombus.build(CmgRhombusParams(), 1e-3)
     mass_model = CmgMassModel.from_model(model)
     times = np.linspace(0.0, 200.0, 11)
     beta = np.tile([0.3, -0.5, 0.9, 0.2], (times.size, 1))

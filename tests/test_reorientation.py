@@ -6,14 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from testbed.pipeline import StageContext
-from testbed.quaternion import quat_angle, quat_conj, quat_from_axis_angle, quat_mul
+from testbed.runner import stage_context
+from testbed.math.quaternion import quat_angle, quat_conj, quat_from_axis_angle, quat_mul
 from testbed.runner import run_scenario
 from testbed.scenario import load_scenario
 from testbed.stages.attitude_sensor import IdealAttitude, IdealAttitudeParams
 from testbed.stages.slew import Slew, SlewParams
 from testbed.steering import pinv_steering
-from testbed.steering.rhombus import rhombus_jacobian
+from rhombus_reference import rhombus_jacobian
 
 AXIS = np.ones(3) / np.sqrt(3.0)
 
@@ -117,7 +117,7 @@ def test_ideal_attitude_noise_has_the_stated_spread_and_repeats_with_the_seed():
 def _slew(**kw):
     scenario = load_scenario("reorient_minimax")
     inertia = np.array([[900.0, 20.0, -10.0], [20.0, 1000.0, 5.0], [-10.0, 5.0, 1200.0]])
-    ctx = StageContext(dt=0.002, control_period=0.05, inertia=inertia, system=None, scenario=scenario)
+    ctx = stage_context(scenario, inertia)
     params = SlewParams(axis=list(AXIS), angle_deg=60.0, duration_s=40.0, start_s=5.0, **kw)
     return Slew(params, ctx), inertia
 
@@ -165,4 +165,4 @@ def test_steering_extremes_count_every_control_step_whatever_the_trace_period(ru
     assert full.metrics["min_singularity_measure"] == np.nanmin(rec["allocator/singularity"])
     assert full.metrics["peak_gimbal_rate_deg_s"] == pytest.approx(
         np.degrees(np.nanmax(np.abs(rec["allocator/gimbal_rates"]))), rel=1e-15)
-    assert full.data.extra["allocator"]["steps"] == round(60.0 / 0.05)
+    assert full.data.statistics["allocator"]["steps"] == round(60.0 / 0.05)

@@ -12,7 +12,7 @@ from scipy.optimize import linprog
 from testbed.errors import InputError
 from testbed.steering import (STEERING_LAWS, gsr_steering, minimax_lp_steering,
                               minimax_steering, pinv_steering, sr_steering, steer)
-from testbed.steering.rhombus import rhombus_jacobian, rhombus_momentum
+from rhombus_reference import rhombus_jacobian, rhombus_momentum
 
 ALPHA = math.radians(50.0)
 LAWS = sorted(STEERING_LAWS)

@@ -38,8 +38,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.physical_checks import check_unit_vector
-from testbed.quaternion import quat_conj, quat_from_axis_angle, quat_mul, quat_rotate
+from testbed.math.validation import check_unit_vector
+from testbed.math.quaternion import quat_conj, quat_from_axis_angle, quat_mul, quat_rotate
 
 # |(Λr0 b3 Λr0~) × b3| below this means b3 is (anti)parallel to its image: b2 is then free.
 _PARALLEL_EPS = 1e-14

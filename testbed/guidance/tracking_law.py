@@ -25,9 +25,9 @@ from __future__ import annotations
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.physical_checks import finite_number
+from testbed.math.validation import finite_number
 from testbed.guidance.program_trajectory import inertia_matrix, unit_quaternion, vector3
-from testbed.quaternion import quat_conj, quat_mul, quat_rotate
+from testbed.math.quaternion import quat_conj, quat_mul, quat_rotate
 
 
 class TrackingLaw:

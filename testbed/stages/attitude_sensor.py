@@ -15,7 +15,7 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.pipeline import stage
-from testbed.quaternion import quat_from_rotation_vector, quat_mul
+from testbed.math.quaternion import quat_from_rotation_vector, quat_mul
 from testbed.schema import param
 
 
@@ -28,6 +28,10 @@ class IdealAttitudeParams:
 
 @stage("sensor", "ideal_attitude", IdealAttitudeParams)
 class IdealAttitude:
+    @classmethod
+    def design(cls, params) -> dict:
+        return {"outputs": ("quat", "omega")}
+
     def __init__(self, params: IdealAttitudeParams, ctx):
         self.params = params
         self.rng = np.random.default_rng(params.seed)
@@ -42,18 +46,19 @@ class IdealAttitude:
         return {"quat": quat, "omega": omega}
 
 
-ATTITUDE_SENSORS = ("ideal_attitude",)
-
-
 @stage("estimator", "attitude")
 class AttitudePassThrough:
     """Estimate = measurement: quat and omega from the attitude sensor, unchanged."""
 
+    @classmethod
+    def design(cls, params) -> dict:
+        return {"outputs": ("quat", "omega")}
+
     def __init__(self, params, ctx):
-        sensor = ctx.scenario.stages["sensor"][0] if ctx.scenario is not None else "ideal_attitude"
-        if sensor not in ATTITUDE_SENSORS:
+        sensor = ctx.stages["sensor"]
+        if not {"quat", "omega"} <= sensor.outputs:
             raise InputError("pipeline.estimator.type", f"attitude needs a sensor that measures quat and "
-                             f"omega ({', '.join(ATTITUDE_SENSORS)}), got sensor {sensor!r}")
+                             f"omega (e.g. ideal_attitude), got sensor {sensor.type!r}")
 
     def estimate(self, t, measurement, command):
         return {"quat": measurement["quat"], "omega": measurement["omega"]}

@@ -9,9 +9,10 @@
   its major axis z; Task 2 (section 5) detumbles it "through" an admissible residual spin
   Omega* (the same law built with Omega = Omega*).
 
-Design data flow: the law owns the task (Omega, gains); the estimator reads Omega from it and
-the sensing axis p (C = p', eq. 4.3) from the `rate_gyro` sensor's parameters, and checks
-observability (eq. 4.4-4.5) before the run. Causality: at tick k the observer has integrated
+Design data flow: the law owns the task (Omega, gains) and publishes Omega; the estimator
+reads it, the sensing axis p (C = p', eq. 4.3) the single-axis sensor publishes, and the
+key under which the allocator reports the torque it delivered (all through
+`StageContext.stages`), and checks observability (eq. 4.4-4.5) before the run. Causality: at tick k the observer has integrated
 over [t_(k-1), t_k] with the gyro sample y_(k-1) and the input u_(k-1) = M / I that were held
 over that interval (u from the torque the allocator reports delivered), so z(t_k) uses no
 information from t_k or later.
@@ -25,9 +26,8 @@ from typing import Literal
 
 import numpy as np
 
-from testbed import pipeline
 from testbed.errors import InputError
-from testbed.lebedev_observer import LebedevObserver, check_gains, check_observer_poles, lebedev_torque
+from testbed.observers.lebedev_observer import LebedevObserver, check_gains, check_observer_poles, lebedev_torque
 from testbed.pipeline import stage
 from testbed.schema import join, param
 
@@ -94,6 +94,10 @@ class LebedevLaw:
     phase of section 3). An estimator without the flag is taken as always closed.
     """
 
+    @classmethod
+    def design(cls, params: LebedevLawParams) -> dict:
+        return {"spin_rate": params.omega_ref, "spin_rate_field": f"pipeline.law.{params.rate_key}"}
+
     def __init__(self, params: LebedevLawParams, ctx):
         self.inertia = principal_moments(ctx.inertia)
         self.target = np.array([0.0, 0.0, params.omega_ref])
@@ -127,29 +131,30 @@ class LebedevObserverParams:
 
 @stage("estimator", "lebedev", LebedevObserverParams)
 class LebedevEstimator:
-    """One-gyro observer; outputs `z`, `closed_loop` (0/1), `innovation` and, once the loop is
-    closed, `omega` = z + (0, 0, Omega). Withholding `omega` during start-up keeps a steering
+    """One-gyro observer; outputs `z`, its rate estimate `omega_estimate` = z + (0, 0, Omega),
+    `closed_loop` (0/1), `innovation` and, once the loop is closed, `omega` (the same estimate). Withholding `omega` during start-up keeps a steering
     allocator from compensating w x H with the start-up transient (peaks of ~70 deg/s)."""
 
     def __init__(self, params: LebedevObserverParams, ctx):
-        stages = ctx.scenario.stages
-        sensor_name, sensor = stages["sensor"]
-        if sensor_name != "rate_gyro":
+        sensor, law, allocator = ctx.stages["sensor"], ctx.stages["law"], ctx.stages["allocator"]
+        if "sensing_axis" not in sensor.design:
             raise InputError("pipeline.sensor.type", f"the lebedev estimator needs the single-axis rate_gyro "
-                                                     f"(y = p . w, eq. 1.1), got {sensor_name!r}")
-        law_name, law = stages["law"]
-        if law_name != "lebedev":
+                                                     f"(y = p . w, eq. 1.1), got {sensor.type!r}")
+        if "spin_rate" not in law.design:
             raise InputError("pipeline.law.type", f"the lebedev estimator takes Omega from the lebedev law, "
-                                                  f"got {law_name!r}")
-        allocator_name = stages["allocator"][0]
-        self.torque_key = _delivered_torque_key(allocator_name)
+                                                  f"got {law.type!r}")
+        if "delivered_torque" not in allocator.design:
+            raise InputError("pipeline.allocator.type", f"the lebedev estimator needs u = M / I: use ideal_torque "
+                             f"or a steering law that reports torque_delivered, got {allocator.type!r}")
+        self.torque_key = allocator.design["delivered_torque"]
         self.inertia = principal_moments(ctx.inertia)
         names = {"sensor.axis": "pipeline.sensor.axis", "body.inertia": "model.inertia_kg_m2",
-                 "control.spin_rate": f"pipeline.law.{law.rate_key}",
+                 "control.spin_rate": law.design["spin_rate_field"],
                  "observer.poles": "pipeline.estimator.poles_per_s",
                  "observer.max_substep": "pipeline.estimator.max_substep_s"}
         with scenario_fields(names):
-            self.observer = LebedevObserver(self.inertia, law.omega_ref, sensor.axis, params.poles,
+            self.observer = LebedevObserver(self.inertia, law.design["spin_rate"], sensor.design["sensing_axis"],
+                                            params.poles,
                                             params.max_substep_s, params.design_momentum_nms)
         self.startup = params.startup_s
         self.l = self.observer.l
@@ -169,20 +174,9 @@ class LebedevEstimator:
         obs = self.observer
         innovation = y - obs.C[2] * obs.spin_rate - obs.C @ obs.z
         closed = t >= self.startup
-        out = {"z": obs.z.copy(), "closed_loop": np.array([1.0 if closed else 0.0]),
-               "innovation": np.array([innovation])}
+        out = {"z": obs.z.copy(), "omega_estimate": obs.omega_estimate(),
+               "closed_loop": np.array([1.0 if closed else 0.0]), "innovation": np.array([innovation])}
         if closed:  # the start-up estimate may be far off: nobody downstream acts on it
             out["omega"] = obs.omega_estimate()
         return out
 
-
-def _delivered_torque_key(allocator_name: str) -> str:
-    """The command key holding the body torque actually applied over the last period."""
-    from testbed.steering import STEERING_LAWS
-
-    if pipeline.output_of("allocator", allocator_name) == "body_torque":
-        return "body_torque"
-    if allocator_name in STEERING_LAWS:
-        return "torque_delivered"
-    raise InputError("pipeline.allocator.type", f"the lebedev estimator needs u = M / I: use ideal_torque or a "
-                                                f"steering law that reports torque_delivered, got {allocator_name!r}")

@@ -2,7 +2,8 @@
 
 They let a validation scenario drive the plant without any controller: `torque_profile`
 (a law) with the `ideal_torque` allocator applies M(t) = M0 + A sin(2 pi f t + phi) on the
-bus; `gimbal_rate_profile` (an allocator) commands each gimbal rate directly.
+bus. `SinusoidProfile` is the schema of such a profile; a system's own open-loop stages
+reuse it for their actuators.
 """
 
 from __future__ import annotations
@@ -103,39 +104,12 @@ class IdealTorque:
 
     output = "body_torque"
 
+    @classmethod
+    def design(cls, params) -> dict:
+        return {"delivered_torque": "body_torque"}
+
     def __init__(self, params, ctx):
         pass
 
     def allocate(self, t, demand, estimate, actuators):
         return {"body_torque": np.asarray(demand.get("torque", np.zeros(3)), float)}
-
-
-@dataclass
-class GimbalRateProfileParams(SinusoidProfile):
-    """Gimbal rates [rad/s] per gimbal (write them with *_deg_s below for degrees)."""
-
-    offset: list[float] = param([0.0] * 4)
-    amplitude: list[float] = param([0.0] * 4)
-    frequency_hz: list[float] = param([0.0] * 4, ge=0)
-    phase_deg: list[float] = param([0.0] * 4)
-    amplitude_deg_s: list[float] | None = None
-    offset_deg_s: list[float] | None = None
-
-    def validate(self, path: str) -> None:
-        if self.amplitude_deg_s is not None:
-            self.amplitude = list(np.deg2rad(self.amplitude_deg_s))
-        if self.offset_deg_s is not None:
-            self.offset = list(np.deg2rad(self.offset_deg_s))
-        super().validate(path)
-
-
-@stage("allocator", "gimbal_rate_profile", GimbalRateProfileParams)
-class GimbalRateProfile:
-    output = "gimbal_rates"
-    needs_actuators = False
-
-    def __init__(self, params, ctx):
-        self.profile = params
-
-    def allocate(self, t, demand, estimate, actuators):
-        return {"gimbal_rates": self.profile(t)}

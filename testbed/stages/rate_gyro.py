@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from testbed.physical_checks import check_unit_vector
+from testbed.math.validation import check_unit_vector
 from testbed.pipeline import stage
 from testbed.schema import join, param, whole_multiple
 
@@ -31,6 +31,10 @@ class RateGyroParams:
 
 @stage("sensor", "rate_gyro", RateGyroParams)
 class RateGyro:
+    @classmethod
+    def design(cls, params: RateGyroParams) -> dict:
+        return {"outputs": ("y", "stamp"), "sensing_axis": list(params.axis)}
+
     def __init__(self, params: RateGyroParams, ctx):
         self.axis = np.asarray(params.axis, float)
         period = params.sample_period_s or ctx.control_period

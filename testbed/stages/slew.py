@@ -9,7 +9,8 @@ locked system inertia ctx.inertia. Before start_s the program holds q0 (rest sta
 after the slew it holds qT (or spins on at the final rate).
 
 Records `law/torque`, the program `program_quat`, `program_omega`, `program_torque`, and the
-attitude error as a rotation vector `attitude_error` [rad, body axes] and its angle `error_angle`.
+attitude error as a rotation vector `attitude_error` [rad, body axes] and its angle `error_angle`;
+declares the program attitude at the run's last sample (`final_program_quat`).
 """
 
 from __future__ import annotations
@@ -21,9 +22,9 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.guidance.program_trajectory import ProgramTrajectory
 from testbed.guidance.tracking_law import TrackingLaw
-from testbed.physical_checks import check_unit_vector
+from testbed.math.validation import check_unit_vector
 from testbed.pipeline import stage
-from testbed.quaternion import quat_from_axis_angle, quat_mul, rotation_vector
+from testbed.math.quaternion import quat_from_axis_angle, quat_mul, rotation_vector
 from testbed.schema import join, param
 
 ZERO3 = [0.0, 0.0, 0.0]
@@ -67,17 +68,19 @@ def build_program(params: SlewParams, q0) -> ProgramTrajectory:
 @stage("law", "slew", SlewParams)
 class Slew:
     def __init__(self, params: SlewParams, ctx):
-        if ctx.scenario.stages["estimator"][0] == "none":
+        if not {"quat", "omega"} <= ctx.stages["estimator"].outputs:
             raise InputError("pipeline.estimator.type", "the slew law needs an estimator that gives quat "
                              "and omega (e.g. sensor ideal_attitude with estimator attitude)")
         self.start = params.start_s
-        self.program = build_program(params, ctx.scenario.initial.quat)
+        self.program = build_program(params, ctx.initial.quat)
         try:
             self.tracking = TrackingLaw(self.program, ctx.inertia, params.natural_frequency_rad_s,
                                         params.damping_ratio)
         except InputError as exc:
             raise InputError(join(LAW_PATH, _FIELDS.get(exc.field, exc.field)), exc.reason) from None
         self.inertia = self.tracking.inertia
+        # the target the run should end on: the program attitude at the last sample
+        self.statistics = {"final_program_quat": self.program.attitude(ctx.end_time - self.start)}
 
     def torque(self, t, estimate):
         tau = t - self.start

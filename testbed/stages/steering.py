@@ -40,15 +40,20 @@ class SteeringAllocator:
     output = "gimbal_rates"
     law_name = ""
 
+    @classmethod
+    def design(cls, params) -> dict:
+        return {"delivered_torque": "torque_delivered"}  # the command key of the torque produced
+
     def __init__(self, params: SteeringParams, ctx):
-        if ctx.system is None or not hasattr(ctx.system, "unit_jacobian"):
-            raise InputError("pipeline.allocator.type", f"{self.law_name} steering needs model.system cmg_rhombus")
+        if not hasattr(ctx.description, "unit_jacobian"):
+            raise InputError("pipeline.allocator.type", f"{self.law_name} steering needs a system with a "
+                             "gimbal cluster (its plant describes H(beta) and dH/dbeta)")
         for option in params.options:
             if option not in LAW_OPTIONS[self.law_name]:
                 allowed = ", ".join(LAW_OPTIONS[self.law_name]) or "none"
                 raise InputError(f"pipeline.allocator.options.{option}",
                                  f"not an option of {self.law_name} (options: {allowed})")
-        self.geometry = ctx.system
+        self.geometry = ctx.description
         self.law = STEERING_LAWS[self.law_name]
         self.rate_max = np.radians(params.beta_rate_max_deg_s)
         defaults = {"rcond": STAGE_RCOND} if "rcond" in LAW_OPTIONS[self.law_name] else {}

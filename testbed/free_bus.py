@@ -1,0 +1,103 @@
+"""A free-flying bus in a compiled model: the free joint named `bus`, its three ideal torque
+motors, and the read-outs every free-flying system shares (body rate, attitude, locked
+inertia about the system CoM, total angular momentum)."""
+
+import mujoco
+import numpy as np
+
+from testbed.errors import InputError
+from testbed.math.validation import check_principal_inertia, positive_number
+
+BUS_BODY = "bus"
+BUS_JOINT = "bus"
+TORQUE_ACTUATORS = ("torque_x", "torque_y", "torque_z")
+
+
+def set_bus_mass(spec, inertia, mass) -> None:
+    """Write the bus's principal inertia [kg m^2] and mass [kg] into `spec` (explicit inertial)."""
+    check_principal_inertia(inertia, "model.inertia_kg_m2")
+    bus = spec.body(BUS_BODY)
+    bus.mass = positive_number("model.mass_kg", mass)
+    bus.inertia = list(map(float, inertia))
+    bus.explicitinertial = True
+
+
+class FreeBus:
+    """Addresses of the bus free joint and the three ideal torque motors in a compiled model."""
+
+    def __init__(self, model):
+        self.model = model
+        joint = model.joint(BUS_JOINT)
+        if joint.type[0] != mujoco.mjtJoint.mjJNT_FREE:
+            raise ValueError(f"joint {BUS_JOINT!r} is not a free joint")
+        self.bus_body_id = model.body(BUS_BODY).id
+        self.qpos_adr = int(joint.qposadr[0])
+        self.qvel_adr = int(joint.dofadr[0])
+        self.torque_actuator_ids = np.array([model.actuator(n).id for n in TORQUE_ACTUATORS])
+
+    def body_omega(self, data):
+        """Body-frame angular velocity [rad/s]: a free joint's rotational qvel is body-frame."""
+        return data.qvel[self.qvel_adr + 3:self.qvel_adr + 6].copy()
+
+    def body_quat(self, data):
+        """Attitude quaternion (w, x, y, z), body -> world."""
+        return data.qpos[self.qpos_adr + 3:self.qpos_adr + 7].copy()
+
+    def set_body_torque(self, data, torque_body):
+        """Command the ideal torque [N m] about the bus axes (body frame)."""
+        data.ctrl[self.torque_actuator_ids] = np.asarray(torque_body, dtype=float)
+
+    def set_free_joint_state(self, data, omega0_body, quat0):
+        """Place the bus at the origin at rest in translation, attitude quat0 (normalised),
+        body-frame angular velocity omega0_body."""
+        quat = np.asarray(quat0, dtype=float)
+        omega = np.asarray(omega0_body, dtype=float)
+        if quat.shape != (4,) or not np.all(np.isfinite(quat)) or np.linalg.norm(quat) < 1e-9:
+            raise InputError("quat0", f"expected a nonzero quaternion (w, x, y, z), got {quat0}")
+        if omega.shape != (3,) or not np.all(np.isfinite(omega)):
+            raise InputError("omega0_body", f"expected 3 finite numbers, got {omega0_body}")
+        data.qpos[self.qpos_adr:self.qpos_adr + 3] = 0.0
+        data.qpos[self.qpos_adr + 3:self.qpos_adr + 7] = quat / np.linalg.norm(quat)
+        data.qvel[self.qvel_adr:self.qvel_adr + 3] = 0.0
+        data.qvel[self.qvel_adr + 3:self.qvel_adr + 6] = omega
+
+    def refresh(self, data):
+        """Recompute kinematics, CoMs, mass matrix and body velocities from the current
+        qpos, qvel. After mj_step, data holds these for the start of the step while qpos and
+        qvel are already the new state; the read-outs below call this so they describe the
+        current state. Touches nothing mj_step reads, so trajectories are unchanged."""
+        mujoco.mj_kinematics(self.model, data)
+        mujoco.mj_comPos(self.model, data)
+        mujoco.mj_makeM(self.model, data)
+        mujoco.mj_comVel(self.model, data)
+
+    def system_inertia(self, data):
+        """Locked inertia of everything attached to the bus, about the system CoM, bus axes
+        [kg m^2].
+
+        The rotational block of the joint-space mass matrix (mj_fullM) is the locked inertia
+        about the free joint's origin in body axes; the parallel-axis theorem moves it to
+        the CoM: I_cm = I_o - m (|c|^2 1 - c c^T), c = CoM in body axes.
+        """
+        self.refresh(data)
+        mass_matrix = np.zeros((self.model.nv, self.model.nv))
+        mujoco.mj_fullM(self.model, data, mass_matrix)
+        a = self.qvel_adr + 3
+        inertia_origin = mass_matrix[a:a + 3, a:a + 3]
+        com_body = self.com_offset_body(data)
+        mass = self.model.body_subtreemass[self.bus_body_id]
+        return inertia_origin - mass * (com_body @ com_body * np.eye(3)
+                                        - np.outer(com_body, com_body))
+
+    def com_offset_body(self, data):
+        """System CoM relative to the bus origin, in bus axes [m] (zero by design); reads
+        the kinematics stored in data (see refresh)."""
+        rot = data.xmat[self.bus_body_id].reshape(3, 3)
+        return rot.T @ (data.subtree_com[self.bus_body_id] - data.xpos[self.bus_body_id])
+
+    def total_angular_momentum_world(self, data):
+        """Angular momentum of the whole spacecraft about its CoM, world frame [N m s]
+        (mj_subtreeVel fills subtree_angmom from the refreshed kinematics and velocities)."""
+        self.refresh(data)
+        mujoco.mj_subtreeVel(self.model, data)
+        return data.subtree_angmom[self.bus_body_id].copy()

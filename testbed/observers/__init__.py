@@ -1,0 +1,1 @@
+"""State observers shared by several systems (each with the stage that runs it in testbed.stages)."""

@@ -1,0 +1,275 @@
+"""Spin control of a rigid body from ONE single-axis rate gyro (Lebedev 1976).
+
+The body spins about its z axis at Omega; the state is the deviation
+x = (wx, wy, wz - Omega) (eq. 4.1) and obeys x' = A x + F(x) + u (eq. 4.2) with
+u = M / I. The only measurement is the gyro output y = p . w (eq. 1.1); in deviation
+form that is y = C x + gamma * Omega with C = p (eq. 4.3), so every innovation below is
+taken on y_dev = y - gamma * Omega. A full-order observer (eq. 4.6) estimates x; the
+control law (eq. 4.7) feeds the estimate back, M_i = I_i k_i z_i.
+
+Pure numpy: no MuJoCo here. Units SI, rates in rad/s.
+"""
+
+import numpy as np
+
+from testbed.errors import InputError
+from testbed.math.rk4 import rk4_steps
+
+# Tolerance for "this factor vanishes" in the observability test, relative to the size
+# of the quantities it is built from (inputs are floats from a scenario file).
+_REL_ZERO = 1e-12
+
+
+def _as_inertia(inertia):
+    inertia = np.asarray(inertia, dtype=float)
+    if inertia.shape != (3,) or not np.all(np.isfinite(inertia)) or np.any(inertia <= 0):
+        raise InputError("body.inertia", f"must be three positive principal moments, got {inertia}")
+    return inertia
+
+
+def _as_axis(sensor_axis):
+    p = np.asarray(sensor_axis, dtype=float)
+    if p.shape != (3,) or not np.all(np.isfinite(p)):
+        raise InputError("sensor.axis", f"must be a 3-vector, got {sensor_axis}")
+    if abs(np.linalg.norm(p) - 1.0) > 1e-6:
+        raise InputError("sensor.axis", f"must be a unit vector (|p| = {np.linalg.norm(p):.6g})")
+    return p
+
+
+def lebedev_matrices(inertia, spin_rate):
+    """Coefficients a_i and the linear matrix A of the deviation equations.
+
+    Lebedev 1976, eq. 4.1-4.2: a1 = (Iy - Iz)/Ix, a2 = (Iz - Ix)/Iy, a3 = (Ix - Iy)/Iz,
+    A = [[0, a1 Omega, 0], [a2 Omega, 0, 0], [0, 0, 0]].  Returns (a, A), a = (a1, a2, a3).
+    """
+    ix, iy, iz = _as_inertia(inertia)
+    a = np.array([(iy - iz) / ix, (iz - ix) / iy, (ix - iy) / iz])
+    w = float(spin_rate)
+    A = np.array([[0.0, a[0] * w, 0.0], [a[1] * w, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    return a, A
+
+
+def lebedev_nonlinearity(a, x):
+    """Quadratic part of the deviation equations, F(x) = (a1 x2 x3, a2 x1 x3, a3 x1 x2).
+
+    Lebedev 1976, eq. 4.2 (the same function of z appears in the observer, eq. 4.6).
+    """
+    return np.array([a[0] * x[1] * x[2], a[1] * x[0] * x[2], a[2] * x[0] * x[1]])
+
+
+def observability_matrix(A, C):
+    """W = [C', A'C', A'^2 C'] (Lebedev 1976, eq. 4.4); columns are the three vectors."""
+    c = np.asarray(C, dtype=float)
+    return np.column_stack([c, A.T @ c, A.T @ A.T @ c])
+
+
+def observability_factor(inertia, spin_rate, sensor_axis):
+    """The factored determinant a1 a2 Omega^3 gamma (a2 beta^2 - a1 alpha^2).
+
+    Lebedev 1976, eq. 4.5. Expanding det W along its third row (only C' has a z entry)
+    gives exactly this product, so det W equals it with constant 1.
+    """
+    a, _ = lebedev_matrices(inertia, spin_rate)
+    alpha, beta, gamma = np.asarray(sensor_axis, dtype=float)
+    w = float(spin_rate)
+    return a[0] * a[1] * w**3 * gamma * (a[1] * beta**2 - a[0] * alpha**2)
+
+
+def check_observable(inertia, spin_rate, sensor_axis):
+    """Refuse a configuration that one gyro cannot observe (Lebedev 1976, eq. 4.4-4.5).
+
+    Tests each factor of a1 a2 Omega^3 gamma (a2 beta^2 - a1 alpha^2) and raises
+    InputError naming the one that vanishes; returns None when all are non-zero.
+    """
+    inertia = _as_inertia(inertia)
+    p = _as_axis(sensor_axis)
+    a, _ = lebedev_matrices(inertia, spin_rate)
+    alpha, beta, gamma = p
+    ix, iy, iz = inertia
+    if abs(float(spin_rate)) == 0.0:
+        raise InputError("control.spin_rate", "unobservable: spin rate Omega is 0 (det W ~ Omega^3)")
+    if abs(iy - iz) <= _REL_ZERO * max(iy, iz):
+        raise InputError("body.inertia", "unobservable: a1 = (Iy - Iz)/Ix is 0 (Iy = Iz)")
+    if abs(iz - ix) <= _REL_ZERO * max(iz, ix):
+        raise InputError("body.inertia", "unobservable: a2 = (Iz - Ix)/Iy is 0 (Iz = Ix)")
+    if abs(gamma) <= _REL_ZERO:
+        raise InputError("sensor.axis", "unobservable: gamma (z component of the sensing axis) is 0")
+    mixed = a[1] * beta**2 - a[0] * alpha**2
+    if abs(mixed) <= _REL_ZERO * (abs(a[1]) * beta**2 + abs(a[0]) * alpha**2 + _REL_ZERO):
+        raise InputError(
+            "sensor.axis",
+            f"unobservable: a2 beta^2 - a1 alpha^2 = 0 (alpha={alpha:.6g}, beta={beta:.6g}, "
+            f"a1={a[0]:.6g}, a2={a[1]:.6g})",
+        )
+
+
+def check_observer_poles(poles):
+    """Validate desired observer poles: three, Re < 0, complex ones in conjugate pairs.
+
+    Returns them as a complex array; raises InputError("observer.poles", ...) otherwise.
+    """
+    try:
+        mu = np.asarray(poles, dtype=complex).ravel()
+    except (TypeError, ValueError):
+        raise InputError("observer.poles", f"must be numbers, got {poles!r}") from None
+    if mu.size != 3:
+        raise InputError("observer.poles", f"need exactly 3 poles (state dimension), got {mu.size}")
+    if not np.all(np.isfinite(mu)):
+        raise InputError("observer.poles", f"must be finite, got {mu}")
+    if np.any(mu.real >= 0):
+        raise InputError("observer.poles", f"need negative real parts for a converging observer, got {mu}")
+    # Real coefficients of theta(s) need every complex pole matched by its conjugate.
+    scale = max(1.0, float(np.max(np.abs(mu))))
+    unmatched = list(mu[np.abs(mu.imag) > 1e-12 * scale])
+    while unmatched:
+        p = unmatched.pop()
+        j = int(np.argmin([abs(q - np.conj(p)) for q in unmatched])) if unmatched else -1
+        if j < 0 or abs(unmatched[j] - np.conj(p)) > 1e-9 * scale:
+            raise InputError("observer.poles", f"complex pole {p} has no conjugate partner")
+        unmatched.pop(j)
+    return mu
+
+
+def check_gains(inertia, spin_rate, gains):
+    """Require A + K Hurwitz for K = diag(k) (Lebedev 1976, text before eq. 4.7).
+
+    Returns k as an array; raises InputError("control.gains", ...) otherwise.
+    """
+    k = np.asarray(gains, dtype=float)
+    if k.shape != (3,) or not np.all(np.isfinite(k)):
+        raise InputError("control.gains", f"must be three numbers k1, k2, k3 [1/s], got {gains}")
+    _, A = lebedev_matrices(inertia, spin_rate)
+    ev = np.linalg.eigvals(A + np.diag(k))
+    if np.any(ev.real >= 0):
+        raise InputError("control.gains", f"A + K is not stable: eigenvalues {np.round(ev, 6)}")
+    return k
+
+
+def observer_gain(inertia, spin_rate, sensor_axis, poles):
+    """Observer gain l placing eig(A - l C) at `poles` (repeated poles allowed).
+
+    Lebedev 1976, text after eq. 4.7: l = T^-1 L with T = [t1 t2 t3]' (rows),
+    t1 = A'^2 C' + alpha1 A'C' + alpha2 C', t2 = A'C' + alpha1 C', t3 = C', where
+    det(sI - A) = s^3 + alpha1 s^2 + alpha2 s + alpha3, theta(s) = prod(s - mu_i) =
+    s^3 + beta1 s^2 + beta2 s + beta3, and L_{4-i} = beta_i - alpha_i.
+    (det T = -det W, so l exists iff the pair (A, C) is observable.)
+    """
+    check_observable(inertia, spin_rate, sensor_axis)
+    _, A = lebedev_matrices(inertia, spin_rate)
+    return ackermann_gain(A, sensor_axis, poles)
+
+
+def ackermann_gain(A, sensor_axis, poles):
+    """l with eig(A - l C) = poles for any observable 3x3 A and C = p' (the T^-1 L construction).
+
+    The same formulas as `observer_gain` (Lebedev 1976, text after eq. 4.7) with A general;
+    raises InputError("sensor.axis", ...) when det T = -det W vanishes (pair unobservable).
+    """
+    mu = check_observer_poles(poles)
+    A = np.asarray(A, dtype=float)
+    c = np.asarray(sensor_axis, dtype=float)
+    alpha = np.poly(A).real  # (1, alpha1, alpha2, alpha3)
+    beta = np.poly(mu).real  # (1, beta1, beta2, beta3)
+    At = A.T
+    t1 = At @ At @ c + alpha[1] * (At @ c) + alpha[2] * c
+    t2 = At @ c + alpha[1] * c
+    t3 = c
+    T = np.vstack([t1, t2, t3])
+    scale = max(np.abs(At @ At @ c).max(), 1e-300) * max(np.abs(At @ c).max(), 1e-300)
+    if abs(np.linalg.det(T)) <= _REL_ZERO * scale:
+        raise InputError("sensor.axis", f"unobservable: det W = {np.linalg.det(T):.3g} for this A and p")
+    L = np.array([beta[3] - alpha[3], beta[2] - alpha[2], beta[1] - alpha[1]])
+    return np.linalg.solve(T, L)
+
+
+def gyrostat_error_matrix(inertia, spin_rate, momentum):
+    """A + I^-1 [H x]: the observer error dynamics when internal momentum H is present.
+
+    A CMG cluster holding H that compensates w x H with the *estimate* w_hat leaves the body
+    a torque (w_hat - w) x H = H x e (e = x - z) that eq. 4.6 does not model, so the error obeys
+    e' = (A + I^-1 [H x] - l C) e + ... (our extension: the paper's body has external torques).
+    """
+    _, A = lebedev_matrices(inertia, spin_rate)
+    h = np.asarray(momentum, dtype=float)
+    cross = np.array([[0.0, -h[2], h[1]], [h[2], 0.0, -h[0]], [-h[1], h[0], 0.0]])
+    return A + cross / _as_inertia(inertia)[:, None]
+
+
+def lebedev_torque(inertia, k, z):
+    """Control torque M_i = I_i k_i z_i [N m] from the state estimate z (Lebedev 1976, eq. 4.7).
+
+    Task 1 (spin at Omega) and Task 2 (detumble, section 5) use the same law; for Task 2
+    the observer is built with Omega = Omega*, a small admissible residual spin.
+    """
+    return np.asarray(inertia, dtype=float) * np.asarray(k, dtype=float) * np.asarray(z, dtype=float)
+
+
+class LebedevObserver:
+    """Discrete-time realisation of the continuous observers (3.1) and (4.6).
+
+    Between two control instants the sample y and the input u are held (zero-order
+    hold) and the continuous observer ODE is integrated with classical RK4 in equal
+    substeps no longer than `max_substep` (RK4 rather than an exact ZOH matrix because
+    eq. 4.6 contains the quadratic F(z); A - lC has |entries| ~ 40 1/s in the paper's
+    example, so substeps of 0.05 s keep h*|A - lC| ~ 1, well inside RK4's region).
+
+    Holding y over the period delays the innovation, and |l| is large (~40 1/s in the
+    example), so the period must stay short. Measured on the section-6 example (RK4
+    truth, t* = 150 s), max |w - (0,0,1)| deg/s at 700 s: continuous 7.6e-7; dt = 0.05 s
+    1.2e-6; 0.1 s 2.7e-6; 0.2 s 4.9e-5; 0.25 s 4.4e-4; dt = 0.5 s diverges.
+
+    State z estimates the deviation x = (wx, wy, wz - Omega); y is the raw gyro output
+    p . w [rad/s]; the innovation uses y_dev = y - gamma Omega, since y = C x + gamma Omega.
+    """
+
+    def __init__(self, inertia, spin_rate, sensor_axis, poles, max_substep=0.05, design_momentum=None):
+        self.inertia = _as_inertia(inertia)
+        self.spin_rate = float(spin_rate)
+        self.C = _as_axis(sensor_axis)
+        self.l = observer_gain(self.inertia, self.spin_rate, self.C, poles)
+        # Closed-loop gain: the paper's l, or l for A + I^-1 [H x] when the actuators hold H.
+        self.l_closed = self.l if design_momentum is None else ackermann_gain(
+            gyrostat_error_matrix(self.inertia, self.spin_rate, design_momentum), self.C, poles)
+        self.a, self.A = lebedev_matrices(self.inertia, self.spin_rate)
+        if not max_substep > 0:
+            raise InputError("observer.max_substep", f"must be > 0, got {max_substep}")
+        self.max_substep = float(max_substep)
+        self.z = np.zeros(3)
+
+    def reset(self, z0=None):
+        """Set the estimate (default z = 0, as at the start of the start-up phase, eq. 3.1)."""
+        self.z = np.zeros(3) if z0 is None else np.asarray(z0, dtype=float).copy()
+
+    def _rhs(self, z, y_dev, u, nonlinear):
+        dz = self.A @ z + (self.l_closed if nonlinear else self.l) * (y_dev - self.C @ z)
+        if nonlinear:
+            dz = dz + lebedev_nonlinearity(self.a, z) + u
+        return dz
+
+    def _advance(self, y, u, dt, nonlinear):
+        if not dt > 0:
+            raise InputError("control.period", f"must be > 0, got {dt}")
+        y_dev = float(y) - self.C[2] * self.spin_rate
+        n = max(1, int(np.ceil(dt / self.max_substep - 1e-9)))
+        self.z = rk4_steps(lambda s, z: self._rhs(z, y_dev, u, nonlinear), self.z, dt, n)
+        return self.z
+
+    def startup_step(self, y, dt):
+        """Advance the start-up observer z' = A z + l (y_dev - C z) by dt (Lebedev 1976, eq. 3.1).
+
+        No F(z) and no u: the body is uncontrolled and still far from the spin that F is
+        expanded about, and with F(z) the estimate stalls (SEEDS §000: ~6 deg/s error
+        against ~0.2 deg/s without it).
+        """
+        return self._advance(y, np.zeros(3), dt, nonlinear=False)
+
+    def step(self, y, u, dt):
+        """Advance z' = A z + l (y_dev - C z) + F(z) + u by dt (Lebedev 1976, eq. 4.6).
+
+        u = M / I [rad/s^2] is the input applied over this period.
+        """
+        return self._advance(y, np.asarray(u, dtype=float), dt, nonlinear=True)
+
+    def omega_estimate(self):
+        """Estimated body rate w = z + (0, 0, Omega) [rad/s] (inverse of eq. 4.1)."""
+        return self.z + np.array([0.0, 0.0, self.spin_rate])

@@ -1,0 +1,93 @@
+"""Metrics of steering runs (SEEDS §004): attitude reached, gimbal rates, singularity.
+
+They apply to runs whose allocator is a steering law (testbed.steering); the attitude
+metrics also need the `slew` law. The commanded-rate, rate-limit, singularity and
+scale metrics count EVERY control step (the allocator keeps those extremes itself), whatever
+the trace period; the others read the trace samples. The last trace row holds only the final
+truth (no command was computed there), so command signals are reduced with nan-aware functions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from testbed.metrics import metric
+from testbed.math.quaternion import quat_angle, quat_conj, quat_mul
+from testbed.steering import STEERING_LAWS
+
+
+def _steered(scenario) -> bool:
+    return scenario.stages["allocator"][0] in STEERING_LAWS
+
+
+def _slewed(scenario) -> bool:
+    return _steered(scenario) and scenario.stages["law"][0] == "slew"
+
+
+def _torque_demanded(scenario) -> bool:
+    return _steered(scenario) and scenario.stages["law"][0] != "none"
+
+
+@metric("final_attitude_error_deg", applies=_slewed)
+def final_attitude_error_deg(run) -> float:
+    """Angle between the final bus attitude and the program attitude at that time (the target) [deg]."""
+    target = run.statistics["law"]["final_program_quat"]
+    error = quat_mul(quat_conj(target), run.recorder["truth/quat"][-1])
+    return float(np.degrees(quat_angle(error)))
+
+
+@metric("max_tracking_error_deg", applies=_slewed)
+def max_tracking_error_deg(run) -> float:
+    """max over control samples of the law's attitude error angle |Λ*~ ∘ q| [deg]."""
+    return float(np.degrees(np.nanmax(run.recorder["law/error_angle"])))
+
+
+@metric("peak_gimbal_rate_deg_s", applies=_steered)
+def peak_gimbal_rate_deg_s(run) -> float:
+    """max over every control step and gimbal of the commanded |b'_i| [deg/s]."""
+    return float(np.degrees(run.statistics["allocator"]["peak_gimbal_rate"]))
+
+
+@metric("peak_gimbal_rate_measured_deg_s", applies=_steered)
+def peak_gimbal_rate_measured_deg_s(run) -> float:
+    """max_t max_i |b'_i| of the true gimbal rates (servo output) [deg/s]."""
+    return float(np.degrees(np.max(np.abs(run.recorder["truth/gimbal_rate"]))))
+
+
+@metric("rate_limit_violations", applies=_steered)
+def rate_limit_violations(run) -> float:
+    """Count of commanded |b'_i| > b'max over every control step and gimbal (SEEDS §004 eq. 4; must be 0)."""
+    return float(run.statistics["allocator"]["rate_limit_violations"])
+
+
+@metric("min_singularity_measure", applies=_steered)
+def min_singularity_measure(run) -> float:
+    """min over every control step of m = sqrt(det(J J^T)) of the unit Jacobian (0: singular; 1.54 at most)."""
+    return float(run.statistics["allocator"]["min_singularity"])
+
+
+@metric("min_scale", applies=_steered)
+def min_scale(run) -> float:
+    """Smallest factor k the rate limit applied to the demand over every control step (1: never limited)."""
+    return float(run.statistics["allocator"]["min_scale"])
+
+
+def _torque_error(run) -> np.ndarray:
+    wanted, delivered = run.recorder["law/torque"], run.recorder["allocator/torque_delivered"]
+    keep = np.all(np.isfinite(wanted), axis=1) & np.all(np.isfinite(delivered), axis=1)
+    return wanted[keep], delivered[keep]
+
+
+@metric("torque_error_rms", applies=_torque_demanded)
+def torque_error_rms(run) -> float:
+    """RMS over control samples of |M_wanted - M_delivered| (law torque vs what the command produces) [N m]."""
+    wanted, delivered = _torque_error(run)
+    return float(np.sqrt(np.mean(np.sum((wanted - delivered) ** 2, axis=1))))
+
+
+@metric("torque_error_rel", applies=_torque_demanded)
+def torque_error_rel(run) -> float:
+    """torque_error_rms / RMS |M_wanted|: the fraction of the wanted torque not delivered."""
+    wanted, delivered = _torque_error(run)
+    rms = np.sqrt(np.mean(np.sum(wanted**2, axis=1)))
+    return float(np.sqrt(np.mean(np.sum((wanted - delivered) ** 2, axis=1))) / max(rms, 1e-300))

@@ -1,0 +1,24 @@
+"""Satellite with four single-gimbal CMGs in the rhombus layout of SEEDS §004 (models/cmg_rhombus.xml).
+
+- model.py            `CmgRhombusParams` (the `model:` block) and `build` through MjSpec
+- cluster.py          the cluster geometry H(beta), dH/dbeta read from the compiled model
+- plant.py            joints and servos by name; the plant the runner steps
+- reduced_model.py    the reduced (gyrostat) model, reference `reduced_cmg`
+- momentum_envelope.py, envelope_command.py   the envelope and singular surfaces, `testbed envelope`
+- stages.py           the open-loop allocator `gimbal_rate_profile`
+- metrics.py          servo tracking of the held gimbal-rate command
+"""
+
+from testbed.systems.cmg_rhombus import envelope_command, metrics, reduced_model, stages  # noqa: F401  (register)
+from testbed.systems.cmg_rhombus.cluster import ClusterGeometry
+from testbed.systems.cmg_rhombus.model import CmgRhombusParams, build
+from testbed.systems.cmg_rhombus.plant import CmgPlant, CmgRhombus
+from testbed.systems_registry import system
+
+
+@system("cmg_rhombus", CmgRhombusParams)
+def make_plant(params: CmgRhombusParams, sim) -> CmgPlant:
+    return CmgPlant(build(params, sim.dt_s, sim.integrator))
+
+
+__all__ = ["ClusterGeometry", "CmgPlant", "CmgRhombus", "CmgRhombusParams", "build", "make_plant"]

@@ -1,0 +1,104 @@
+"""Geometry of the 4-CMG rhombus cluster (SEEDS §004), read back from a compiled model.
+
+CMG i has spin axis cos(b_i) e_i + sin(b_i) s_i z with e1 = (cos a, sin a, 0),
+e2 = (-cos a, sin a, 0), e3 = -e1, e4 = -e2, s = (+1, +1, -1, -1), gimbal axis
+g_i = s_i (e_i x z). Rodrigues' formula about g_i gives R(b) e_i = cos b e_i + sin b (g_i x e_i),
+and g_i x e_i = s_i z, so a positive MuJoCo hinge angle b_i about g_i is exactly the paper's b_i.
+`rhombus_axes` places the bodies when the model is built; `ClusterGeometry` reads the axes,
+rotor momenta, H(beta) and dH/dbeta from the compiled model (never typed in a second time).
+"""
+
+import numpy as np
+
+from testbed.free_bus import BUS_BODY
+from testbed.math.quaternion import quat_to_matrix
+
+N_CMG = 4
+GIMBALS = tuple(f"gimbal{i}" for i in range(1, N_CMG + 1))  # body and joint names
+ROTORS = tuple(f"rotor{i}" for i in range(1, N_CMG + 1))  # body and joint names
+ROTOR_SPEED_NUMERIC = "rotor_nominal_speed"
+SIGNS = np.array([1.0, 1.0, -1.0, -1.0])  # s_i of SEEDS §004
+
+
+def rhombus_axes(alpha):
+    """Unit vectors of SEEDS §004 in the bus frame: e_i (spin at beta = 0), g_i = s_i e_i x z
+    (gimbal) and s_i z (where the spin axis turns for beta > 0); each (4, 3)."""
+    c, s = np.cos(alpha), np.sin(alpha)
+    e = np.array([[c, s, 0.0], [-c, s, 0.0], [-c, -s, 0.0], [c, -s, 0.0]])
+    z = np.array([0.0, 0.0, 1.0])
+    g = SIGNS[:, None] * np.cross(e, z)
+    return e, g, SIGNS[:, None] * z
+
+
+class ClusterGeometry:
+    """CMG cluster geometry read from a compiled model, in the bus frame.
+
+    gimbal_axes g_i, spin_axes_zero e_i (spin at beta = 0), turn_axes = g_i x e_i (= s_i z):
+    (4, 3) unit vectors. spin_inertia Js_i [kg m^2], nominal_rotor_speed Omega [rad/s],
+    rotor_momentum h_i = Js_i Omega (4,), h: the common value of h_i [N m s].
+    """
+
+    def __init__(self, gimbal_axes, spin_axes_zero, spin_inertia, nominal_rotor_speed):
+        self.gimbal_axes = np.asarray(gimbal_axes, dtype=float)
+        self.spin_axes_zero = np.asarray(spin_axes_zero, dtype=float)
+        self.turn_axes = np.cross(self.gimbal_axes, self.spin_axes_zero)
+        self.spin_inertia = np.asarray(spin_inertia, dtype=float)
+        self.nominal_rotor_speed = float(nominal_rotor_speed)
+        self.rotor_momentum = self.spin_inertia * self.nominal_rotor_speed
+        if np.ptp(self.rotor_momentum) > 1e-12 * self.rotor_momentum.max():
+            raise ValueError(f"rotor momenta differ: {self.rotor_momentum}")
+        self.h = float(self.rotor_momentum.mean())
+
+    @classmethod
+    def from_model(cls, model):
+        """Axes from body quaternions and joint axes, Js from the rotor inertials (the inertia
+        about the spin axis), Omega from the custom numeric "rotor_nominal_speed"."""
+        bus_id = model.body(BUS_BODY).id
+        gimbal_axes, spin_axes, spin_inertia = [], [], []
+        for gimbal_name, rotor_name in zip(GIMBALS, ROTORS):
+            gimbal, rotor = model.body(gimbal_name), model.body(rotor_name)
+            if gimbal.parentid[0] != bus_id or rotor.parentid[0] != gimbal.id:
+                raise ValueError(f"{rotor_name} must sit in {gimbal_name}, which sits in bus")
+            to_bus = quat_to_matrix(gimbal.quat)  # gimbal frame -> bus frame
+            rotor_to_bus = to_bus @ quat_to_matrix(rotor.quat)
+            rotor_axis = model.jnt_axis[model.joint(rotor_name).id]  # rotor frame
+            gimbal_axes.append(to_bus @ model.jnt_axis[model.joint(gimbal_name).id])
+            spin_axes.append(rotor_to_bus @ rotor_axis)
+            inertial = quat_to_matrix(rotor.iquat)  # principal frame -> rotor frame
+            inertia_rotor_frame = inertial @ np.diag(rotor.inertia) @ inertial.T
+            spin_inertia.append(rotor_axis @ inertia_rotor_frame @ rotor_axis)
+        speed = model.numeric(ROTOR_SPEED_NUMERIC).data[0]
+        return cls(gimbal_axes, spin_axes, spin_inertia, speed)
+
+    @property
+    def alpha(self):
+        """Rhombus angle a of SEEDS §004, from e_1 = (cos a, sin a, 0)."""
+        return float(np.arctan2(self.spin_axes_zero[0, 1], self.spin_axes_zero[0, 0]))
+
+    def spin_axes(self, beta):
+        """Unit spin axes at gimbal angles beta, (..., 4, 3): cos b_i e_i + sin b_i s_i z."""
+        beta = np.asarray(beta, dtype=float)[..., None]
+        return np.cos(beta) * self.spin_axes_zero + np.sin(beta) * self.turn_axes
+
+    def momentum(self, beta, rotor_rates=None):
+        """Total rotor spin momentum H(beta) = sum_i h_i (cos b_i e_i + sin b_i s_i z) in the
+        bus frame [N m s] (SEEDS §004 eq. (15)); with rotor_rates, h_i = Js_i Omega_i.
+        Leading dimensions of beta and rotor_rates (e.g. a recorded history) broadcast."""
+        h = self.rotor_momentum if rotor_rates is None else (
+            self.spin_inertia * np.asarray(rotor_rates, dtype=float))
+        return (h[..., None, :] @ self.spin_axes(beta))[..., 0, :]
+
+    def unit_jacobian(self, beta):
+        """dH/dbeta per unit rotor momentum, (3, 4): column i = -sin b_i e_i + cos b_i s_i z
+        (SEEDS §004 eq. (18) divided by h). Steering solves h J(b) b' = H' (eq. (17))."""
+        beta = np.asarray(beta, dtype=float)[:, None]
+        return (-np.sin(beta) * self.spin_axes_zero + np.cos(beta) * self.turn_axes).T
+
+    def jacobian(self, beta):
+        """dH/dbeta at the nominal rotor momenta [N m s / rad], (3, 4): h_i times unit column."""
+        return self.unit_jacobian(beta) * self.rotor_momentum
+
+    def singularity_measure(self, beta):
+        """sqrt(det(J J^T)) of the unit Jacobian: 0 at a singular set, up to (4/3)^(3/2)."""
+        j = self.unit_jacobian(beta)
+        return float(np.sqrt(max(np.linalg.det(j @ j.T), 0.0)))

@@ -1,0 +1,21 @@
+"""Metrics of the CMG spacecraft's actuators (the steering metrics live with the steering stages)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from testbed.metrics import metric
+
+
+def _servo_commanded(scenario) -> bool:
+    return scenario.system == "cmg_rhombus" and scenario.stages["allocator"][0] != "none"
+
+
+@metric("gimbal_rate_error_rel", applies=_servo_commanded)
+def gimbal_rate_error_rel(run) -> float:
+    """max_i max_t |b'_i(t_k+1) - cmd_i(t_k)| / max_t |cmd_i|: servo tracking of the held command, after 0.1 s."""
+    rates = run.recorder["truth/gimbal_rate"][1:]
+    command = run.recorder["allocator/gimbal_rates"][:-1]  # held over (t_k, t_k+1]
+    keep = run.recorder.time[1:] > 0.1
+    scale = np.maximum(np.nanmax(np.abs(command), axis=0), 1e-12)
+    return float(np.nanmax(np.abs(rates[keep] - command[keep]) / scale))

@@ -1,0 +1,154 @@
+"""The CMG spacecraft of SEEDS §004 (models/cmg_rhombus.xml): its parameters and `build`.
+
+`CmgRhombusParams` is the scenario's `model:` block (units in the key names); `build`
+applies every field to the MJCF with MjSpec: the bus mass properties, the rhombus placement
+of the four gimbals (angle alpha), rotor and gimbal inertias, and the gimbal-rate and
+rotor-speed servo gains.
+"""
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from testbed.errors import InputError
+from testbed.free_bus import set_bus_mass
+from testbed.math.validation import check_principal_inertia
+from testbed.model_files import load_spec
+from testbed.schema import join, param
+from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTOR_SPEED_NUMERIC, ROTORS, rhombus_axes
+
+GIMBAL_SERVOS = tuple(f"gimbal_rate{i}" for i in range(1, N_CMG + 1))
+ROTOR_SERVOS = tuple(f"rotor_speed{i}" for i in range(1, N_CMG + 1))
+INITIAL_KEY = "initial"
+
+# RK4 stays accurate and stable for the servo modes when (rate x dt) is well below its
+# stability limit 2.8; divergence was measured at w_n dt ~ 1 and good tracking at 0.3-0.6.
+MAX_SERVO_OMEGA_DT = 0.7
+MAX_DT_OVER_ROTOR_TAU = 0.5
+
+
+@dataclass(kw_only=True)
+class CmgRhombusParams:
+    """The bus plus four single-gimbal CMGs in the rhombus layout (SEEDS §004).
+
+    inertia_kg_m2: principal inertia of the bus alone about its CoM; the system inertia also
+        contains the CMG masses at cmg_distance_m and their own inertias.
+    rotor_momentum_nms: h, spin momentum of one rotor at the nominal speed; the rotor spin
+        inertia is Js = h / Omega.
+    rotor_transverse_ratio: rotor transverse inertia / spin inertia (0.5 for a thin disk).
+    gimbal_inertia_kg_m2: gimbal frame principal inertia about (gimbal axis, spin axis at
+        beta = 0, third axis).
+    servo_natural_frequency_rad_s, servo_damping_ratio: gimbal-rate servo w_n and zeta;
+        kp = J w_n^2, kv = 2 zeta w_n J with J the inertia about the gimbal axis (gimbal frame
+        + rotor transverse), so the servo's dynamics do not change with the inertias.
+    rotor_speed_time_constant_s: tau of the rotor speed loop; kv = Js / tau.
+    gimbal_angles_deg: initial gimbal angles; the default is the zero-momentum, full-rank set.
+    """
+
+    system: str = "cmg_rhombus"
+    inertia_kg_m2: list[float] = param([800.0, 1000.0, 1200.0], length=3, doc="principal inertia of the bus")
+    mass_kg: float = param(1000.0, gt=0)
+    alpha_deg: float = param(float(np.degrees(np.arctan(np.sqrt(2.0)))), gt=0, lt=90)
+    rotor_momentum_nms: float = param(50.0, gt=0, doc="h of each rotor at nominal speed")
+    rotor_speed_rpm: float = param(6000.0, gt=0)
+    rotor_transverse_ratio: float = param(0.6, ge=0.5, doc="Jt / Js of the rotor (>= 0.5 for a rotor)")
+    rotor_mass_kg: float = param(10.0, gt=0)
+    gimbal_mass_kg: float = param(5.0, gt=0)
+    gimbal_inertia_kg_m2: list[float] = param([0.03, 0.02, 0.02], length=3, gt=0)
+    cmg_distance_m: float = param(0.5, gt=0)
+    servo_natural_frequency_rad_s: float = param(316.0, gt=0)
+    servo_damping_ratio: float = param(1.0, gt=0)
+    rotor_speed_time_constant_s: float = param(0.02, gt=0)
+    gimbal_angles_deg: list[float] = param([45.0, -45.0, -45.0, 45.0], length=4)
+
+    def validate(self, path: str) -> None:
+        check_principal_inertia(self.inertia_kg_m2, join(path, "inertia_kg_m2"))
+        check_principal_inertia(self.gimbal_inertia_kg_m2, join(path, "gimbal_inertia_kg_m2"))
+
+    @property
+    def rotor_speed(self) -> float:
+        """Nominal rotor speed Omega [rad/s]."""
+        return self.rotor_speed_rpm * np.pi / 30.0
+
+
+def build(params: CmgRhombusParams, dt: float, integrator: str = "RK4") -> mujoco.MjModel:
+    """Compile models/cmg_rhombus.xml with every field of `params` applied through MjSpec."""
+    spec = load_spec("cmg_rhombus.xml", dt, integrator)
+    set_bus_mass(spec, params.inertia_kg_m2, params.mass_kg)
+    omega_rotor = params.rotor_speed
+    spin_inertia = params.rotor_momentum_nms / omega_rotor
+    ratio = params.rotor_transverse_ratio
+    rotor_inertia = np.array([ratio, ratio, 1.0]) * spin_inertia  # rotor spin axis = local z
+    gimbal_inertia = np.asarray(params.gimbal_inertia_kg_m2, float)
+    gimbal_axis_inertia = gimbal_inertia[0] + rotor_inertia[0]  # rotor transverse about g
+    kp, kv = servo_gains(params, dt, gimbal_axis_inertia)
+    tau = params.rotor_speed_time_constant_s
+    if dt / tau > MAX_DT_OVER_ROTOR_TAU:
+        raise InputError("model.rotor_speed_time_constant_s",
+                         f"{tau} s is too short for timestep {dt} s under RK4")
+    rotor_kv = spin_inertia / tau
+
+    e, g, sz = rhombus_axes(np.radians(params.alpha_deg))
+    for i in range(N_CMG):
+        gimbal = spec.body(GIMBALS[i])
+        gimbal.pos = params.cmg_distance_m * e[i]
+        # gimbal frame: x = g_i (hinge axis in the XML), y = e_i (rotor spin), z = s_i z
+        quat = np.zeros(4)
+        mujoco.mju_mat2Quat(quat, np.column_stack([g[i], e[i], sz[i]]).ravel())
+        gimbal.quat = quat
+        gimbal.mass = params.gimbal_mass_kg
+        gimbal.inertia = gimbal_inertia
+        gimbal.ipos = np.zeros(3)
+        rotor = spec.body(ROTORS[i])
+        rotor.mass = params.rotor_mass_kg
+        rotor.inertia = rotor_inertia
+        rotor.ipos = np.zeros(3)
+
+        servo = spec.actuator(GIMBAL_SERVOS[i])
+        servo.gainprm = _with_first(servo.gainprm, [kp])
+        servo.biasprm = _with_first(servo.biasprm, [0.0, -kp, -kv])
+        speed = spec.actuator(ROTOR_SERVOS[i])
+        speed.gainprm = _with_first(speed.gainprm, [rotor_kv])
+        speed.biasprm = _with_first(speed.biasprm, [0.0, 0.0, -rotor_kv])
+
+    spec.numeric(ROTOR_SPEED_NUMERIC).data = [omega_rotor]
+    _write_initial_key(spec, np.radians(params.gimbal_angles_deg), omega_rotor)
+    return spec.compile()
+
+
+def servo_gains(params: CmgRhombusParams, dt: float, gimbal_axis_inertia: float):
+    """(kp, kv) of the integrated-velocity gimbal servo: the closed loop
+    J b'' + kv b' + kp b = kp b_cmd has natural frequency w_n and damping ratio zeta.
+
+    kv damps the absolute gimbal rate (not the rate error), so a sinusoidal rate command of
+    frequency w is tracked with a relative error of about 2 zeta w / w_n (0.4 % at 0.1 Hz
+    for the defaults); a steady rate is tracked exactly, with a constant angle lag."""
+    w_n, zeta = params.servo_natural_frequency_rad_s, params.servo_damping_ratio
+    if w_n * dt > MAX_SERVO_OMEGA_DT:
+        raise InputError("model.servo_natural_frequency_rad_s",
+                         f"w_n dt = {w_n * dt:.3f} exceeds {MAX_SERVO_OMEGA_DT}: "
+                         "RK4 would be inaccurate or unstable")
+    return gimbal_axis_inertia * w_n**2, 2.0 * zeta * w_n * gimbal_axis_inertia
+
+
+def _with_first(array, values):
+    """Copy of `array` with its first entries replaced by `values`."""
+    out = np.array(array, dtype=float)
+    out[:len(values)] = values
+    return out
+
+
+def _write_initial_key(spec, beta0, omega_rotor):
+    """Keyframe "initial": bus at rest at the origin, gimbals at beta0 with servo activations
+    equal to beta0 (so the servos start without a position error), rotors at nominal speed."""
+    key = spec.key(INITIAL_KEY)
+    qpos = [0, 0, 0, 1, 0, 0, 0]
+    qvel = [0.0] * 6
+    for b in beta0:
+        qpos += [b, 0.0]
+        qvel += [0.0, omega_rotor]
+    key.qpos = qpos
+    key.qvel = qvel
+    key.act = list(beta0)
+    key.ctrl = [0.0] * 3 + [0.0] * N_CMG + [omega_rotor] * N_CMG

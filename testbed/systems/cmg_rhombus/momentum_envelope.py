@@ -1,0 +1,154 @@
+"""Momentum envelope and singular surfaces of a cluster of single-gimbal CMGs.
+
+Geometry of the 4-CMG "rhombus" cluster (SEEDS §004 eq. 15): CMG i has momentum
+h (cos βi e_i + sin βi s_i z) with e1 = (cos α, sin α, 0), e2 = (-cos α, sin α, 0),
+e3 = -e1, e4 = -e2, s = (+1, +1, -1, -1), gimbal axis g_i = s_i (e_i × z), so that
+dh_i/dβi = g_i × h_i and the Jacobian ∂H/∂β (eq. 18) has columns g_i × h_i.
+
+Singular states (Margulies & Aubrun 1978; Bedrossian 1990): J loses rank when every
+torque axis g_i × h_i is perpendicular to one unit direction u. Then each h_i extremises
+u·h_i on its gimbal circle, i.e. it is ± the projection of u onto the gimbal plane:
+
+    h_i = ε_i h (g_i × u) × g_i / |g_i × u|,   ε_i = ±1,   H(u, ε) = Σ h_i.
+
+ε = (+1, +1, +1, +1) maximises u·H: H(u, ε) over all u is the momentum envelope
+(saturation surface). Any other sign pattern gives an internal singular surface. Since
+H(-u, -ε) = H(u, ε), the patterns ε and -ε trace the same surface; we key surfaces by the
+pattern with ε1 = +1 (8 surfaces, 1 external and 7 internal). Directions u within 1e-6
+of a gimbal axis are dropped: there the projection vanishes and h_i is undetermined.
+
+Only the gimbal axes enter the construction, so any cluster can be passed as a (4, 3)
+array (e.g. read from the MuJoCo model); by default they come from α.
+"""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import numpy as np
+
+from testbed.systems.cmg_rhombus.cluster import rhombus_axes
+from testbed.errors import InputError
+from testbed.math.validation import finite_number, positive_number
+
+# Directions u closer than this (|g_i × u|) to a gimbal axis are skipped (see module doc).
+_AXIS_EPS = 1e-6
+
+EXTERNAL = (1, 1, 1, 1)
+
+
+def rhombus_geometry(alpha):
+    """(e, s, g) of the rhombus cluster (SEEDS §004 eq. 15): β = 0 directions e (4, 3),
+    signs s (4,), gimbal axes g_i = s_i (e_i × z) (4, 3); from the domain's rhombus_axes."""
+    e, g, sz = rhombus_axes(finite_number("cmg.alpha_rad", alpha))
+    return e, sz[:, 2].copy(), g
+
+
+def rhombus_gimbal_axes(alpha) -> np.ndarray:
+    """Unit gimbal axes (4, 3) of the rhombus cluster for skew angle α [rad]."""
+    return rhombus_geometry(alpha)[2]
+
+
+def fibonacci_sphere(n) -> np.ndarray:
+    """n nearly uniform unit vectors (n, 3) on the sphere (golden-angle spiral)."""
+    n = _count("envelope.n_points", n)
+    k = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * k / n
+    r = np.sqrt(1.0 - z * z)
+    phi = np.pi * (3.0 - np.sqrt(5.0)) * k
+    return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
+
+
+def singular_momenta(u, signs, axes, h=1.0) -> np.ndarray:
+    """Per-CMG momenta h_i = ε_i h (g_i × u) × g_i / |g_i × u| for directions u (m, 3): (m, 4, 3).
+
+    Every such state is singular, with u normal to all torque axes g_i × h_i.
+    Raises InputError if some u lies along a gimbal axis (h_i undetermined there).
+    """
+    g = _axes(axes)
+    u = np.atleast_2d(np.asarray(u, dtype=float))
+    eps = np.asarray(signs, dtype=float).reshape(1, -1, 1)
+    if eps.shape[1] != g.shape[0] or not np.all(np.abs(eps) == 1):
+        raise InputError("envelope.signs", f"must be {g.shape[0]} values of +1 or -1, got {signs!r}")
+    h = positive_number("cmg.h_Nms", h)
+    gxu = np.cross(g[None, :, :], u[:, None, :])  # (m, 4, 3)
+    norm = np.linalg.norm(gxu, axis=-1, keepdims=True)
+    if np.any(norm < _AXIS_EPS):
+        raise InputError("envelope.u", "a direction lies along a gimbal axis; its CMG momentum is undetermined")
+    proj = np.cross(gxu, g[None, :, :])  # (g × u) × g: u projected onto the gimbal plane
+    return eps * h * proj / norm
+
+
+def _directions(axes, n):
+    """Fibonacci directions with those along a gimbal axis removed."""
+    u = fibonacci_sphere(n)
+    near = np.linalg.norm(np.cross(axes[None, :, :], u[:, None, :]), axis=-1).min(axis=1)
+    return u[near >= _AXIS_EPS]
+
+
+def envelope_points(alpha, n, h=1.0, axes=None) -> np.ndarray:
+    """Points (m, 3) [N m s] of the external momentum envelope (ε = +1) over n directions u."""
+    g = rhombus_gimbal_axes(alpha) if axes is None else _axes(axes)
+    return singular_momenta(_directions(g, n), EXTERNAL, g, h).sum(axis=1)
+
+
+def singular_surface_points(alpha, n, h=1.0, axes=None) -> dict[tuple[int, ...], np.ndarray]:
+    """{sign pattern ε (ε1 = +1): points (m, 3)} for the envelope (1,1,1,1) and the 7 internal surfaces."""
+    g = rhombus_gimbal_axes(alpha) if axes is None else _axes(axes)
+    u = _directions(g, n)
+    surfaces = {}
+    for rest in itertools.product((1, -1), repeat=g.shape[0] - 1):
+        pattern = (1, *rest)
+        surfaces[pattern] = singular_momenta(u, pattern, g, h).sum(axis=1)
+    return surfaces
+
+
+def write_envelope_rrd(path, alpha, h, n, axes=None) -> Path:
+    """Write the envelope and internal singular surfaces as rr.Points3D (+ gimbal axes) to a .rrd file.
+
+    Entities: envelope/external, envelope/internal/<pattern> (p = +1, m = -1), envelope/gimbal_axes.
+    """
+    import rerun as rr  # deferred: the geometry above does not need the viewer SDK
+
+    g = rhombus_gimbal_axes(alpha) if axes is None else _axes(axes)
+    h = positive_number("cmg.h_Nms", h)
+    surfaces = singular_surface_points(alpha, n, h, g)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    rec = rr.RecordingStream("testbed", recording_id="momentum-envelope")
+    rec.save(str(path))  # before logging, so nothing is buffered for a viewer
+    radius = 0.01 * h
+    for pattern, points in surfaces.items():
+        if pattern == EXTERNAL:
+            entity, color = "envelope/external", (70, 130, 230, 255)
+        else:
+            name = "".join("p" if s > 0 else "m" for s in pattern)
+            negatives = sum(1 for s in pattern if s < 0)
+            entity = f"envelope/internal/{name}"
+            color = (230, 120, 40, 255) if negatives % 2 else (200, 40, 160, 255)
+        rec.log(entity, rr.Points3D(points, colors=[color], radii=radius), static=True)
+    rec.log(
+        "envelope/gimbal_axes",
+        rr.Arrows3D(vectors=2.0 * h * g, labels=[f"g{i + 1}" for i in range(len(g))]),
+        static=True,
+    )
+    rec.flush()
+    rec.disconnect()
+    return path
+
+
+def _count(field, value) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise InputError(field, f"must be a positive integer, got {value!r}")
+    return int(value)
+
+
+def _axes(axes) -> np.ndarray:
+    g = np.asarray(axes, dtype=float)
+    if g.ndim != 2 or g.shape[1] != 3 or g.shape[0] < 1 or not np.all(np.isfinite(g)):
+        raise InputError("cmg.gimbal_axes", f"must be an (n, 3) array of finite numbers, got shape {g.shape}")
+    norms = np.linalg.norm(g, axis=1)
+    if np.any(np.abs(norms - 1.0) > 1e-6):
+        raise InputError("cmg.gimbal_axes", f"must be unit vectors, norms {np.round(norms, 9).tolist()}")
+    return g / norms[:, None]

@@ -1,0 +1,141 @@
+"""The CMG spacecraft as a plant: gimbal-rate servos and ideal torques, cluster read-outs.
+
+`CmgRhombus` knows the compiled model's gimbal and rotor joints and servos by name;
+`CmgPlant` is what the runner steps and the sensors read.
+"""
+
+import mujoco
+import numpy as np
+
+from testbed.errors import InputError
+from testbed.free_bus import FreeBus
+from testbed.plant import Plant
+from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTORS, ClusterGeometry
+from testbed.systems.cmg_rhombus.model import GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS
+
+
+class CmgRhombus(FreeBus):
+    """The compiled CMG spacecraft, known by joint and actuator names."""
+
+    def __init__(self, model):
+        super().__init__(model)
+        self.geometry = ClusterGeometry.from_model(model)
+        gimbal_joints = [model.joint(n) for n in GIMBALS]
+        rotor_joints = [model.joint(n) for n in ROTORS]
+        self.gimbal_qpos_adr = np.array([j.qposadr[0] for j in gimbal_joints])
+        self.gimbal_qvel_adr = np.array([j.dofadr[0] for j in gimbal_joints])
+        self.rotor_qpos_adr = np.array([j.qposadr[0] for j in rotor_joints])
+        self.rotor_qvel_adr = np.array([j.dofadr[0] for j in rotor_joints])
+        self.gimbal_actuator_ids = np.array([model.actuator(n).id for n in GIMBAL_SERVOS])
+        self.gimbal_act_adr = model.actuator_actadr[self.gimbal_actuator_ids]
+        self.rotor_actuator_ids = np.array([model.actuator(n).id for n in ROTOR_SERVOS])
+        self.initial_key_id = model.key(INITIAL_KEY).id
+        # every dof that is not the bus free joint belongs to a gimbal or a rotor
+        bus_dofs = set(range(self.qvel_adr, self.qvel_adr + 6))
+        self.internal_dofs = np.array([i for i in range(model.nv) if i not in bus_dofs])
+
+    def gimbal_angles(self, data):
+        """Gimbal angles beta [rad], (4,)."""
+        return data.qpos[self.gimbal_qpos_adr].copy()
+
+    def gimbal_rates(self, data):
+        """Gimbal rates beta' [rad/s], (4,)."""
+        return data.qvel[self.gimbal_qvel_adr].copy()
+
+    def rotor_rates(self, data):
+        """Rotor speeds relative to their gimbals Omega [rad/s], (4,)."""
+        return data.qvel[self.rotor_qvel_adr].copy()
+
+    def set_gimbal_rate_command(self, data, rates):
+        """Command gimbal rates [rad/s]; the servo integrates them into an angle set-point."""
+        data.ctrl[self.gimbal_actuator_ids] = np.asarray(rates, dtype=float)
+
+    def set_rotor_speed_command(self, data, speeds):
+        """Command relative rotor speeds [rad/s]."""
+        data.ctrl[self.rotor_actuator_ids] = np.asarray(speeds, dtype=float)
+
+    def initialise(self, data, omega0_body, quat0, beta0=None, rotor_speed=None):
+        """Reset to keyframe "initial" (beta0 and nominal rotor speed from build), then set the
+        bus attitude quat0 and body rate omega0_body, optionally other gimbal angles beta0
+        and rotor speeds; servo activations = gimbal angles, gimbal commands 0; mj_forward."""
+        mujoco.mj_resetDataKeyframe(self.model, data, self.initial_key_id)
+        if beta0 is not None:
+            beta0 = np.asarray(beta0, dtype=float)
+            if beta0.shape != (N_CMG,) or not np.all(np.isfinite(beta0)):
+                raise InputError("beta0", f"expected {N_CMG} finite angles, got {beta0}")
+            data.qpos[self.gimbal_qpos_adr] = beta0
+        if rotor_speed is not None:
+            speeds = np.broadcast_to(np.asarray(rotor_speed, dtype=float), (N_CMG,))
+            if not np.all(np.isfinite(speeds)):
+                raise InputError("rotor_speed", f"expected finite speeds, got {rotor_speed}")
+            data.qvel[self.rotor_qvel_adr] = speeds
+            self.set_rotor_speed_command(data, speeds)
+        # the servo set-point is its activation: it must start at the actual angle
+        data.act[self.gimbal_act_adr] = data.qpos[self.gimbal_qpos_adr]
+        data.qvel[self.gimbal_qvel_adr] = 0.0
+        self.set_gimbal_rate_command(data, np.zeros(N_CMG))
+        self.set_free_joint_state(data, omega0_body, quat0)
+        mujoco.mj_forward(self.model, data)
+
+    def internal_momentum_body(self, data):
+        """Angular momentum of the gimbals and rotors relative to the bus, bus frame [N m s].
+
+        The bus-rotation row of the mass matrix times the gimbal and rotor joint rates:
+        sum_k I_k w_rel,k (+ m_k r_k x v_rel,k, zero here since every CoM lies on its
+        joint axis). Includes the gimbal-rate terms, unlike the spin-only H(beta).
+        """
+        self.refresh(data)
+        mass_matrix = np.zeros((self.model.nv, self.model.nv))
+        mujoco.mj_fullM(self.model, data, mass_matrix)
+        a = self.qvel_adr + 3
+        rows = mass_matrix[a:a + 3][:, self.internal_dofs]
+        return rows @ data.qvel[self.internal_dofs]
+
+
+class CmgPlant(Plant):
+    """Truth adds gimbal angles and rates, rotor rates and the cluster momentum H (body frame)."""
+
+    actuators = ("body_torque", "gimbal_rates")
+
+    def __init__(self, model):
+        super().__init__(CmgRhombus(model))
+        self.geometry = self.bus.geometry
+
+    def initialise(self, initial) -> None:
+        self.bus.initialise(self.data, initial.omega, initial.quat)
+
+    def truth(self) -> dict[str, np.ndarray]:
+        signals = super().truth()
+        signals.update(gimbal_angle=self.bus.gimbal_angles(self.data),
+                       gimbal_rate=self.bus.gimbal_rates(self.data),
+                       rotor_rate=self.bus.rotor_rates(self.data))
+        return signals
+
+    def derived_signals(self, recorder) -> dict[str, np.ndarray]:
+        """Cluster spin momentum H(beta, Omega), body axes, from the recorded gimbal and rotor
+        histories (SEEDS §004 eq. 15), computed after the run in one vectorised pass."""
+        return {"truth/cmg_momentum": self.geometry.momentum(recorder["truth/gimbal_angle"],
+                                                            recorder["truth/rotor_rate"])}
+
+    def actuator_state(self) -> dict[str, np.ndarray]:
+        """What the gimbal encoders and rotor tachometers report."""
+        return {"gimbal_angle": self.bus.gimbal_angles(self.data),
+                "rotor_rate": self.bus.rotor_rates(self.data)}
+
+    def apply(self, command: dict[str, np.ndarray]) -> None:
+        super().apply(command)
+        rates = command.get("gimbal_rates")
+        if rates is not None:
+            self.bus.set_gimbal_rate_command(self.data, rates)
+
+    def internal_momentum_body(self) -> np.ndarray:
+        return self.bus.internal_momentum_body(self.data)
+
+    def momentum_scale(self) -> float:
+        """max(|L|, |H|, sum_i |h_i|): the stored rotor momentum sum_i Js_i |Omega_i| keeps the
+        scale meaningful for a zero-momentum gimbal set (H = 0, e.g. (45, -45, -45, 45) deg)."""
+        stored = float(np.sum(self.geometry.spin_inertia * np.abs(self.bus.rotor_rates(self.data))))
+        return max(super().momentum_scale(), stored)
+
+    def description(self):
+        return self.geometry

@@ -1,0 +1,52 @@
+"""Physical systems by name (`model: {system: NAME, ...}`).
+
+A system is one MJCF file in models/ and one package in testbed/systems/ that registers
+itself with `@system(name, Params)` on its plant factory `make_plant(params, sim) -> Plant`.
+`Params` is the system's one schema dataclass (units in the key names); its `system` field
+holds the name.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from testbed import schema
+from testbed.errors import InputError
+from testbed.registry import Registry
+
+
+@dataclass(frozen=True)
+class System:
+    params: type
+    make_plant: Callable      # (params, sim: SimConfig) -> Plant
+    free_flying: bool = True  # a free body with conserved total momentum when unactuated
+
+
+SYSTEMS = Registry("system")
+
+
+def system(name: str, params: type, free_flying: bool = True):
+    """Register `make_plant(params, sim)` as system `name` with schema dataclass `params`."""
+
+    def register(make_plant):
+        SYSTEMS.add(name, System(params, make_plant, free_flying))
+        return make_plant
+
+    return register
+
+
+def load_params(config: dict, path: str):
+    """(name, validated params) of a `model:` mapping."""
+    if not isinstance(config, dict):
+        raise InputError(path, f"must be a mapping, got {config!r}")
+    name = config.get("system")
+    return name, schema.load(SYSTEMS.lookup(name, f"{path}.system").params, config, path)
+
+
+def make_plant(scenario):
+    return SYSTEMS[scenario.system].make_plant(scenario.model, scenario.sim)
+
+
+def is_free_flying(scenario) -> bool:
+    return SYSTEMS[scenario.system].free_flying
