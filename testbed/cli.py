@@ -26,7 +26,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="testbed", description="Gyrodyne (CMG) attitude-control testbed on MuJoCo.")
+    parser = _Parser(prog="testbed", description="Gyrodyne (control-moment gyroscope) attitude-control testbed on MuJoCo.")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     run = sub.add_parser("run", help="run one scenario headless and write its .rrd")
     run.add_argument("scenario", help="scenario file or name in scenarios/")

@@ -53,6 +53,21 @@ def compute_all(run) -> dict[str, float]:
     return {name: float(METRICS[name].compute(run)) for name in available(run.scenario)}
 
 
+def sample_norms(run, key: str) -> np.ndarray:
+    """|v| per trace sample of the recorded vector signal `key`."""
+    return np.linalg.norm(run.recorder[key], axis=1)
+
+
+def final_norm_metric(name: str, key: str, doc: str, applies: Callable = lambda scenario: True) -> None:
+    """Register metric `name` = |v| of the recorded vector signal `key` at the last trace sample."""
+
+    def final_norm(run) -> float:
+        return float(sample_norms(run, key)[-1])
+
+    final_norm.__doc__ = doc
+    metric(name, applies)(final_norm)
+
+
 def evaluate_checks(scenario, values: dict[str, float]) -> list[dict]:
     return [{"name": name, "value": values[name], "limit": limit.text, "passed": limit.passed(values[name])}
             for name, limit in scenario.checks.items()]
@@ -89,7 +104,5 @@ def max_omega_error_rad_s(run) -> float:
     return float(np.max(np.linalg.norm(run.recorder["reference/omega_error"], axis=1)))
 
 
-@metric("final_omega_rad_s", applies=lambda s: _free_flying(s))
-def final_omega_rad_s(run) -> float:
-    """|w| of the bus at the end of the run [rad/s]."""
-    return float(np.linalg.norm(run.recorder["truth/omega"][-1]))
+final_norm_metric("final_omega_rad_s", "truth/omega", "|w| of the bus at the end of the run [rad/s].",
+                  applies=_free_flying)

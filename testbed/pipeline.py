@@ -11,7 +11,8 @@ what their slot is given, so nothing downstream of the sensor can read the true 
 
 Every key a stage returns is recorded under `<slot>/<key>`. A stage class may publish
 design data for the other stages with a classmethod `design(params) -> dict` (by
-convention `outputs`: the keys it returns); the `StageContext` carries every slot's
+convention `outputs`: the keys it returns; a class attribute `outputs` says the same for a
+stage whose keys do not depend on its parameters); the `StageContext` carries every slot's
 `StageInfo`, so no stage reads another's parameters. A stage may keep `statistics` (a dict
 of counts over every control step) that metrics read after the run.
 """
@@ -101,8 +102,13 @@ def output_of(slot: str, name: str) -> str | None:
 
 
 def stage_info(slot: str, name: str, params) -> StageInfo:
-    design = getattr(stage_class(slot, name), "design", None)
-    return StageInfo(name, design(params) if design is not None else {})
+    """The stage's published design data: `design(params)`, and `outputs` from the class
+    attribute of that name when the keys a stage returns do not depend on its parameters."""
+    cls = stage_class(slot, name)
+    design = dict(cls.design(params)) if hasattr(cls, "design") else {}
+    if hasattr(cls, "outputs"):
+        design.setdefault("outputs", cls.outputs)
+    return StageInfo(name, design)
 
 
 def build(slot: str, name: str, params, ctx: StageContext):

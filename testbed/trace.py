@@ -2,8 +2,8 @@
 
 Entity paths: `<group>/<signal>` for every recorded signal (groups `truth`, `sensor`,
 `estimator`, `law`, `allocator`, `reference`), `world/bus` (attitude as a transform with the
-bus box), `world/angular_momentum` (total, world frame), `world/bus/cmg_momentum` (cluster
-momentum, body frame) and `run/result` (the metrics and checks as JSON, read back by
+bus box), `world/angular_momentum` (total, world frame), `world/bus/<name>` for each
+body-frame momentum the plant's scene names (e.g. an actuator cluster's) and `run/result` (the metrics and checks as JSON, read back by
 `testbed inspect`). Everything is buffered and sent with `send_columns` on `sim_time`.
 """
 
@@ -28,7 +28,7 @@ TIMELINE = "sim_time"
 UNITS = {
     "omega": "rad/s", "omega_error": "rad/s", "y": "rad/s", "bias": "rad/s",
     "quat": "", "attitude_error": "rad",
-    "angular_momentum_world": "N m s", "cmg_momentum": "N m s", "internal_momentum": "N m s",
+    "angular_momentum_world": "N m s", "internal_momentum": "N m s",
     "kinetic_energy": "J", "torque": "N m", "body_torque": "N m", "torque_delivered": "N m",
     "gimbal_angle": "rad", "gimbal_rate": "rad/s", "gimbal_rates": "rad/s", "rotor_rate": "rad/s",
     "singularity": "", "scale": "", "z": "rad/s",
@@ -36,8 +36,8 @@ UNITS = {
 AXES = {3: ["x", "y", "z"], 4: ["1", "2", "3", "4"]}
 
 
-def _series_names(name: str, width: int) -> list[str]:
-    unit = UNITS.get(name, "")
+def _series_names(name: str, width: int, units: dict) -> list[str]:
+    unit = units.get(name, "")
     suffix = f" [{unit}]" if unit else ""
     if name == "quat":
         labels = ["w", "x", "y", "z"]
@@ -86,7 +86,8 @@ def write_rrd(path: Path, recorder: Recorder, result: dict, scene: dict | None =
 
     The file is written beside `path` first and renamed at the end, so an interrupted write
     never leaves a complete-looking file. `scene` may hold `bus_half_size` (3,) [m] and a
-    `momentum_scale` [m per N m s] for the arrows.
+    `momentum_scale` [m per N m s] for the arrows, `body_momenta` {signal key: entity name} of
+    body-frame momenta to draw on the bus, and `units` {signal name: unit} beside UNITS.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -95,13 +96,14 @@ def write_rrd(path: Path, recorder: Recorder, result: dict, scene: dict | None =
     rec.save(str(partial))
     rec.send_blueprint(_blueprint(recorder, scene))
     times = rr.TimeColumn(TIMELINE, duration=recorder.time)
+    units = UNITS | (scene or {}).get("units", {})
     for key in recorder.keys():
         values = np.asarray(recorder[key], float)
         if values.ndim == 1:
             values = values[:, None]
         values = values.reshape(len(values), -1)
         name = key.rsplit("/", 1)[-1]
-        rec.log(key, rr.SeriesLines(names=_series_names(name, values.shape[1])), static=True)
+        rec.log(key, rr.SeriesLines(names=_series_names(name, values.shape[1], units)), static=True)
         rec.send_columns(key, indexes=[times], columns=rr.Scalars.columns(scalars=values))
     if scene is not None:
         _write_scene(rec, recorder, times, scene)
@@ -125,8 +127,9 @@ def _write_scene(rec, recorder: Recorder, times, scene: dict) -> None:
                          columns=rr.Transform3D.columns(quaternion=q[:, [1, 2, 3, 0]]))  # Rerun: xyzw
     # Arrows about twice the bus size, so they stick out of the box.
     scale = float(scene.get("momentum_scale", 1.0)) * 2.0 * float(half.max())
-    for key, entity, color in (("truth/angular_momentum_world", "world/angular_momentum", [250, 200, 40]),
-                               ("truth/cmg_momentum", "world/bus/cmg_momentum", [240, 110, 30])):
+    arrows = [("truth/angular_momentum_world", "world/angular_momentum", [250, 200, 40])] + [
+        (key, f"world/bus/{name}", [240, 110, 30]) for key, name in scene.get("body_momenta", {}).items()]
+    for key, entity, color in arrows:
         if key in recorder:
             vectors = recorder[key] * scale
             rec.send_columns(entity, indexes=[times],

@@ -21,16 +21,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from testbed.math.quaternion import quat_from_axis_angle, quat_mul
-
-_X, _Z = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0])
 
 
 def quat_from_euler(angles) -> np.ndarray:
-    """Unit quaternion (w, x, y, z), body to world, of (phi, psi, theta): qz(psi) o qx(theta) o qz(phi)."""
-    phi, psi, theta = (float(a) for a in angles)
-    return quat_mul(quat_mul(quat_from_axis_angle(_Z, psi), quat_from_axis_angle(_X, theta)),
-                    quat_from_axis_angle(_Z, phi))
+    """Unit quaternion (w, x, y, z), body to world, of (phi, psi, theta): qz(psi) o qx(theta) o qz(phi),
+    by the closed form of the module docstring."""
+    phi, psi, theta = angles
+    ct, st = np.cos(theta / 2), np.sin(theta / 2)
+    s, d = (psi + phi) / 2, (psi - phi) / 2
+    return np.array([ct * np.cos(s), st * np.cos(d), st * np.sin(d), ct * np.sin(s)])
 
 
 def euler_from_quat(quat) -> np.ndarray:
@@ -63,6 +62,23 @@ def body_rates(angles, angle_rates) -> np.ndarray:
     return np.array([dtheta * np.cos(phi) + dpsi * np.sin(phi) * np.sin(theta),
                      -dtheta * np.sin(phi) + dpsi * np.cos(phi) * np.sin(theta),
                      dphi + dpsi * np.cos(theta)])
+
+
+def rate_matrix(q) -> np.ndarray:
+    """E(q) with w = E q' (the rates of `body_rates` as a matrix)."""
+    phi, _, theta = q
+    sf, cf, st, ct = np.sin(phi), np.cos(phi), np.sin(theta), np.cos(theta)
+    return np.array([[0.0, sf * st, cf], [0.0, cf * st, -sf], [1.0, ct, 0.0]])
+
+
+def rate_matrix_dot_times(q, qd) -> np.ndarray:
+    """E'(q, q') q': the part of w' = E q'' + E' q' that does not hold q''."""
+    phi, _, theta = q
+    dphi, dpsi, dtheta = qd
+    sf, cf, st, ct = np.sin(phi), np.cos(phi), np.sin(theta), np.cos(theta)
+    return np.array([-dtheta * sf * dphi + dpsi * (cf * st * dphi + sf * ct * dtheta),
+                     -dtheta * cf * dphi + dpsi * (-sf * st * dphi + cf * ct * dtheta),
+                     -dpsi * st * dtheta])
 
 
 def angle_rates(angles, omega_body) -> np.ndarray:

@@ -17,6 +17,7 @@ from testbed.errors import InputError
 from testbed.pipeline import stage
 from testbed.math.quaternion import quat_from_rotation_vector, quat_mul
 from testbed.schema import param
+from testbed.stages.white_noise import WhiteNoise
 
 
 @dataclass(kw_only=True)
@@ -28,21 +29,18 @@ class IdealAttitudeParams:
 
 @stage("sensor", "ideal_attitude", IdealAttitudeParams)
 class IdealAttitude:
-    @classmethod
-    def design(cls, params) -> dict:
-        return {"outputs": ("quat", "omega")}
+    outputs = ("quat", "omega")
 
     def __init__(self, params: IdealAttitudeParams, ctx):
         self.params = params
-        self.rng = np.random.default_rng(params.seed)
+        self.noise = WhiteNoise(params.seed)
 
     def measure(self, t, plant):
         p = self.params
-        quat, omega = plant.quat(), plant.omega()
+        quat = plant.quat()
         if p.attitude_noise_rad:
-            quat = quat_mul(quat, quat_from_rotation_vector(p.attitude_noise_rad * self.rng.standard_normal(3)))
-        if p.rate_noise_rad_s:
-            omega = omega + p.rate_noise_rad_s * self.rng.standard_normal(3)
+            quat = quat_mul(quat, quat_from_rotation_vector(self.noise.add(0.0, p.attitude_noise_rad, 3)))
+        omega = self.noise.add(plant.omega(), p.rate_noise_rad_s, 3)
         return {"quat": quat, "omega": omega}
 
 
@@ -50,9 +48,7 @@ class IdealAttitude:
 class AttitudePassThrough:
     """Estimate = measurement: quat and omega from the attitude sensor, unchanged."""
 
-    @classmethod
-    def design(cls, params) -> dict:
-        return {"outputs": ("quat", "omega")}
+    outputs = ("quat", "omega")
 
     def __init__(self, params, ctx):
         sensor = ctx.stages["sensor"]

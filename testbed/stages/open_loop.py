@@ -18,40 +18,20 @@ from testbed.schema import param
 ZERO3 = [0.0, 0.0, 0.0]
 
 
-@stage("sensor", "none")
-class NoSensor:
+class _EmptySlot:
+    """A slot left empty: it takes no parameters and returns nothing."""
+
     def __init__(self, params, ctx):
         pass
 
-    def measure(self, t, plant):
+    def _nothing(self, *inputs) -> dict:
         return {}
 
 
-@stage("estimator", "none")
-class NoEstimator:
-    def __init__(self, params, ctx):
-        pass
-
-    def estimate(self, t, measurement, command):
-        return {}
-
-
-@stage("law", "none")
-class NoLaw:
-    def __init__(self, params, ctx):
-        pass
-
-    def torque(self, t, estimate):
-        return {}
-
-
-@stage("allocator", "none")
-class NoActuation:
-    def __init__(self, params, ctx):
-        pass
-
-    def allocate(self, t, demand, estimate, actuators):
-        return {}
+# the four slots' methods (testbed.pipeline): each empty stage answers its own with nothing
+for _slot, _method in (("sensor", "measure"), ("estimator", "estimate"), ("law", "torque"),
+                       ("allocator", "allocate")):
+    stage(_slot, "none")(type(f"No{_slot.title()}", (_EmptySlot,), {_method: _EmptySlot._nothing}))
 
 
 @dataclass

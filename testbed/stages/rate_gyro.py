@@ -14,6 +14,7 @@ import numpy as np
 from testbed.math.validation import check_unit_vector
 from testbed.pipeline import stage
 from testbed.schema import join, param, whole_multiple
+from testbed.stages.white_noise import WhiteNoise
 
 
 @dataclass(kw_only=True)
@@ -42,7 +43,7 @@ class RateGyro:
         self.every = whole_multiple(period, ctx.dt, field, "the physics step sim.dt_s")
         self.every_tick = whole_multiple(period, ctx.control_period, field, "sim.control_period_s")
         self.params = params
-        self.rng = np.random.default_rng(params.seed)
+        self.noise = WhiteNoise(params.seed)
         self.tick = 0
         self.y = np.zeros(1)
         self.stamp = np.zeros(1)
@@ -50,9 +51,7 @@ class RateGyro:
     def measure(self, t, plant):
         if self.tick % self.every_tick == 0:
             p = self.params
-            y = self.axis @ plant.omega() + p.bias_rad_s
-            if p.noise_sigma_rad_s:
-                y += p.noise_sigma_rad_s * self.rng.standard_normal()
+            y = self.noise.add(self.axis @ plant.omega() + p.bias_rad_s, p.noise_sigma_rad_s)
             if p.quantisation_rad_s:
                 y = p.quantisation_rad_s * np.round(y / p.quantisation_rad_s)
             self.y = np.array([y])

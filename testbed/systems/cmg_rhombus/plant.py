@@ -139,3 +139,8 @@ class CmgPlant(Plant):
 
     def description(self):
         return self.geometry
+
+    def scene(self) -> dict:
+        """The base scene plus the cluster momentum H drawn on the bus."""
+        return super().scene() | {"body_momenta": {"truth/cmg_momentum": "cmg_momentum"},
+                                  "units": {"cmg_momentum": "N m s"}}

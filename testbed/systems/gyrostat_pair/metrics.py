@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from testbed.metrics import metric
+from testbed.metrics import final_norm_metric, metric, sample_norms
 
 FIT_FLOOR_REL = 1e-4   # fit the decay down to this fraction of the peak
 
@@ -24,10 +24,6 @@ def fitted_decay_rate(t: np.ndarray, error: np.ndarray, floor_rel: float = FIT_F
     if stop - start < 3:
         return float("nan")
     return float(-np.polyfit(t[start:stop], np.log(error[start:stop]), 1)[0])
-
-
-def _norms(run, key):
-    return np.linalg.norm(run.recorder[key], axis=1)
 
 
 # --- seed 003: observer ----------------------------------------------------------------------
@@ -73,13 +69,11 @@ def _sync(scenario) -> bool:
     return scenario.system == "gyrostat_pair" and scenario.stages["law"][0] == "synchronisation"
 
 
-@metric("sync_final_error_rad_s", applies=_sync)
-def sync_final_error_rad_s(run) -> float:
-    """|p - w|, follower minus leader angular velocity, at the end [rad/s]."""
-    return float(_norms(run, "truth/sync_error")[-1])
+final_norm_metric("sync_final_error_rad_s", "truth/sync_error",
+                  "|p - w|, follower minus leader angular velocity, at the end [rad/s].", _sync)
 
 
 @metric("sync_decay_rate_1_s", applies=_sync)
 def sync_decay_rate_1_s(run) -> float:
     """Decay rate fitted to |p - w| from its peak down to 1e-4 of it [1/s]."""
-    return fitted_decay_rate(run.recorder.time, _norms(run, "truth/sync_error"))
+    return fitted_decay_rate(run.recorder.time, sample_norms(run, "truth/sync_error"))

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from testbed.metrics import metric
+from testbed.metrics import final_norm_metric, metric, sample_norms
 
 ENVELOPE_WINDOW_S = 5.0
 
@@ -24,36 +24,23 @@ def envelope_ratio(t: np.ndarray, values: np.ndarray, window: float = ENVELOPE_W
     return float(np.max(peaks[1:] / peaks[:-1]))
 
 
-
-def _norms(run, key):
-    return np.linalg.norm(run.recorder[key], axis=1)
-
-
 def _program(scenario) -> bool:
     return scenario.system == "gyrostat_variable"
 
 
-
-
-@metric("final_deviation_rad", applies=_program)
-def final_deviation_rad(run) -> float:
-    """|x(T)|, x = q - r(t) the Euler-angle deviation from the program at the end [rad]."""
-    return float(_norms(run, "truth/deviation")[-1])
-
-
-@metric("final_deviation_rate_rad_s", applies=_program)
-def final_deviation_rate_rad_s(run) -> float:
-    """|x'(T)| at the end of the run [rad/s]."""
-    return float(_norms(run, "truth/deviation_rate")[-1])
+final_norm_metric("final_deviation_rad", "truth/deviation",
+                  "|x(T)|, x = q - r(t) the Euler-angle deviation from the program at the end [rad].", _program)
+final_norm_metric("final_deviation_rate_rad_s", "truth/deviation_rate", "|x'(T)| at the end of the run [rad/s].",
+                  _program)
 
 
 @metric("deviation_envelope_ratio", applies=_program)
 def deviation_envelope_ratio(run) -> float:
     """max over consecutive 5 s windows of peak|x| / previous window's peak|x| (< 1: decaying envelope)."""
-    return envelope_ratio(run.recorder.time, _norms(run, "truth/deviation"))
+    return envelope_ratio(run.recorder.time, sample_norms(run, "truth/deviation"))
 
 
 @metric("deviation_rate_envelope_ratio", applies=_program)
 def deviation_rate_envelope_ratio(run) -> float:
     """max over consecutive 5 s windows of peak|x'| / previous window's peak|x'|."""
-    return envelope_ratio(run.recorder.time, _norms(run, "truth/deviation_rate"))
+    return envelope_ratio(run.recorder.time, sample_norms(run, "truth/deviation_rate"))

@@ -28,34 +28,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from testbed.math.euler_angles import body_rates
-
-
-def rate_matrix(q) -> np.ndarray:
-    """E(q) with w = E q' (Bezglasny & Khudyakova: p = theta' cos phi + psi' sin phi sin theta,
-    q = -theta' sin phi + psi' cos phi sin theta, r = phi' + psi' cos theta)."""
-    phi, _, theta = q
-    sf, cf, st, ct = np.sin(phi), np.cos(phi), np.sin(theta), np.cos(theta)
-    return np.array([[0.0, sf * st, cf], [0.0, cf * st, -sf], [1.0, ct, 0.0]])
-
-
-def rate_matrix_dot_times(q, qd) -> np.ndarray:
-    """E'(q, q') q': the part of w' = E q'' + E' q' that does not hold q''."""
-    phi, _, theta = q
-    dphi, dpsi, dtheta = qd
-    sf, cf, st, ct = np.sin(phi), np.cos(phi), np.sin(theta), np.cos(theta)
-    return np.array([-dtheta * sf * dphi + dpsi * (cf * st * dphi + sf * ct * dtheta),
-                     -dtheta * cf * dphi + dpsi * (-sf * st * dphi + cf * ct * dtheta),
-                     -dpsi * st * dtheta])
-
-
-def euler_quat(q) -> np.ndarray:
-    """Quaternion (w, x, y, z) of (phi, psi, theta) by the closed form of testbed.math.euler_angles
-    (the same as quat_from_euler, without its three quaternion products)."""
-    phi, psi, theta = q
-    ct, st = np.cos(theta / 2), np.sin(theta / 2)
-    s, d = (psi + phi) / 2, (psi - phi) / 2
-    return np.array([ct * np.cos(s), st * np.cos(d), st * np.sin(d), ct * np.sin(s)])
+from testbed.math.euler_angles import body_rates, quat_from_euler, rate_matrix, rate_matrix_dot_times
 
 
 class EulerDynamics:
@@ -74,7 +47,7 @@ class EulerDynamics:
     def _set(self, q, qd, hinge_angles, hinge_rates) -> None:
         d = self.data
         d.qpos[:] = 0.0
-        d.qpos[self._qpos + 3:self._qpos + 7] = euler_quat(q)
+        d.qpos[self._qpos + 3:self._qpos + 7] = quat_from_euler(q)
         d.qpos[self._hinge_qpos] = hinge_angles
         d.qvel[:] = 0.0
         d.qvel[self._dof + 3:self._dof + 6] = body_rates(q, qd)

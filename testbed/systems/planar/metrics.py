@@ -103,11 +103,14 @@ def eta_formula(run) -> float:
 
 # --- phase 1: free decay ------------------------------------------------------------------
 
+def _decay_figure(run, key: str, figure):
+    """figure(t, x) of the free-decay phase (from t = 0 to the first switch-on), once per run."""
+    t, x = _window(run, 0.0, _first_switch_on(run.scenario))
+    return _cached(run, key, lambda: figure(t, x))
+
+
 def _eta_sim(run) -> float:
-    def compute():
-        t, x = _window(run, 0.0, _first_switch_on(run.scenario))
-        return fig.stability_margin_from_poles(fig.identify_poles(t, x))
-    return _cached(run, "eta", compute)
+    return _decay_figure(run, "eta", lambda t, x: fig.stability_margin_from_poles(fig.identify_poles(t, x)))
 
 
 @metric("akor_eta_sim_1_s", applies=_has_decay)
@@ -130,10 +133,7 @@ def eta_over_eta_max(run) -> float:
 
 
 def _settling_sim(run) -> float:
-    def compute():
-        t, x = _window(run, 0.0, _first_switch_on(run.scenario))
-        return fig.settling_time(t, x[:, 0], final=0.0)
-    return _cached(run, "settling", compute)
+    return _decay_figure(run, "settling", lambda t, x: fig.settling_time(t, x[:, 0], final=0.0))
 
 
 @metric("akor_settling_time_s", applies=_has_offset_decay)

@@ -18,6 +18,7 @@ from testbed.systems.planar.akor_regulator import lqr_gain
 from testbed.errors import InputError
 from testbed.pipeline import stage
 from testbed.schema import param
+from testbed.stages.white_noise import WhiteNoise
 
 
 @dataclass(kw_only=True)
@@ -34,22 +35,17 @@ def _planar_only(ctx, slot: str, name: str) -> None:
 
 @stage("sensor", "hinge_encoder", HingeEncoderParams)
 class HingeEncoder:
-    @classmethod
-    def design(cls, params) -> dict:
-        return {"outputs": ("angle", "rate")}
+    outputs = ("angle", "rate")
 
     def __init__(self, params: HingeEncoderParams, ctx):
         _planar_only(ctx, "sensor", "hinge_encoder")
         self.params = params
-        self.rng = np.random.default_rng(params.seed)
+        self.noise = WhiteNoise(params.seed)
 
     def measure(self, t, plant):
         p = self.params
-        angle, rate = plant.angle(), plant.rate()
-        if p.angle_noise_rad:
-            angle += p.angle_noise_rad * self.rng.standard_normal()
-        if p.rate_noise_rad_s:
-            rate += p.rate_noise_rad_s * self.rng.standard_normal()
+        angle = self.noise.add(plant.angle(), p.angle_noise_rad)
+        rate = self.noise.add(plant.rate(), p.rate_noise_rad_s)
         return {"angle": np.array([angle]), "rate": np.array([rate])}
 
 
