@@ -1,1 +1,1 @@
-"""Guidance for attitude slews (SEEDS §004 stage 1): program trajectory, tracking law, CMG momentum envelope."""
+"""Guidance for attitude slews (SEEDS §004 stage 1): the program trajectory and the law that tracks it."""

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.math.validation import check_unit_vector
+from testbed.math.validation import check_unit_vector, inertia_matrix, positive_number, unit_quaternion, vector3
 from testbed.math.quaternion import quat_conj, quat_from_axis_angle, quat_mul, quat_rotate
 
 # |(Λr0 b3 Λr0~) × b3| below this means b3 is (anti)parallel to its image: b2 is then free.
@@ -51,53 +51,6 @@ _LOCK_EPS = 1e-6
 _ORDERS = np.array([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1),
                     (2, 0, 0), (0, 2, 0), (0, 0, 2), (1, 1, 0), (1, 0, 1), (0, 1, 1)])
 _SECOND_WEIGHTS = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])
-
-
-def unit_quaternion(field: str, q, tol: float = 1e-6) -> np.ndarray:
-    """q as a float (4,) array normalised to 1, or InputError(field) if ||q| - 1| > tol."""
-    q = np.asarray(q, dtype=float)
-    if q.shape != (4,) or not np.all(np.isfinite(q)):
-        raise InputError(field, f"must be 4 finite numbers (w, x, y, z), got {q.tolist()}")
-    norm = np.linalg.norm(q)
-    if abs(norm - 1.0) > tol:
-        raise InputError(field, f"must be a unit quaternion, |q| = {norm:.9g}")
-    return q / norm
-
-
-def vector3(field: str, v) -> np.ndarray:
-    """v as a float (3,) array, or InputError(field) if it is not 3 finite numbers."""
-    v = np.asarray(v, dtype=float)
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise InputError(field, f"must be 3 finite numbers, got {np.asarray(v).tolist()}")
-    return v
-
-
-def inertia_matrix(inertia, field: str = "body.inertia") -> np.ndarray:
-    """Body inertia as a symmetric positive-definite (3, 3) matrix [kg m²].
-
-    Accepts three principal moments or a full matrix; raises InputError(field) otherwise.
-    """
-    a = np.asarray(inertia, dtype=float)
-    if a.shape == (3,):
-        a = np.diag(a)
-    if a.shape != (3, 3) or not np.all(np.isfinite(a)):
-        raise InputError(field, "must be 3 principal moments or a 3x3 matrix of finite numbers")
-    if np.abs(a - a.T).max() > 1e-12 * np.abs(a).max():
-        raise InputError(field, "must be symmetric")
-    if np.linalg.eigvalsh(a).min() <= 0:
-        raise InputError(field, "must be positive definite")
-    return a
-
-
-def _duration(T) -> float:
-    """T as a float > 0, or InputError("slew.duration_s")."""
-    try:
-        value = float(T)
-    except (TypeError, ValueError):
-        value = float("nan")
-    if not np.isfinite(value) or value <= 0:
-        raise InputError("slew.duration_s", f"must be a finite time > 0 s, got {T!r}")
-    return value
 
 
 def _perpendicular(v):
@@ -140,7 +93,7 @@ class ProgramTrajectory:
     duration: float
 
     def __post_init__(self):
-        object.__setattr__(self, "duration", _duration(self.duration))
+        object.__setattr__(self, "duration", positive_number("slew.duration_s", self.duration))
         object.__setattr__(self, "q_ref", unit_quaternion("slew.q_target", self.q_ref))
         axes = np.asarray(self.axes, dtype=float)
         if axes.shape != (3, 3) or not np.all(np.isfinite(axes)):
@@ -161,7 +114,7 @@ class ProgramTrajectory:
 
         q0, qT: unit quaternions (body to world); w0, wT: body rates [rad/s]; T [s].
         """
-        T = _duration(T)
+        T = positive_number("slew.duration_s", T)
         q0 = unit_quaternion("slew.q_initial", q0)
         qT = unit_quaternion("slew.q_target", qT)
         w0 = vector3("slew.w_initial_rad_s", w0)
@@ -188,7 +141,7 @@ class ProgramTrajectory:
     @classmethod
     def eigen_axis_slew(cls, q0, axis, angle, T) -> "ProgramTrajectory":
         """Rest-to-rest slew by `angle` [rad, |angle| <= π] about the unit body `axis`, in time T."""
-        axis = check_unit_vector(vector3("slew.axis", axis), "slew.axis")
+        axis = check_unit_vector(axis, "slew.axis")
         angle = float(angle)
         if not np.isfinite(angle) or abs(angle) > np.pi:
             raise InputError("slew.angle_rad", f"must be finite with |angle| <= pi, got {angle!r}")
@@ -249,7 +202,7 @@ class ProgramTrajectory:
 
     def torque(self, t, inertia) -> np.ndarray:
         """Program torque M* = I ω*' + ω* × I ω* [N m, body frame] (eq. 9)."""
-        inertia = inertia_matrix(inertia)
+        inertia = inertia_matrix("body.inertia", inertia)
         _, w, dw = self.state(t)
         return inertia @ dw + np.cross(w, inertia @ w)
 

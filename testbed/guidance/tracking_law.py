@@ -25,8 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.math.validation import finite_number
-from testbed.guidance.program_trajectory import inertia_matrix, unit_quaternion, vector3
+from testbed.math.validation import finite_number, inertia_matrix, unit_quaternion, vector3
 from testbed.math.quaternion import quat_conj, quat_mul, quat_rotate
 
 
@@ -38,7 +37,7 @@ class TrackingLaw:
 
     def __init__(self, program, inertia, natural_frequency, damping_ratio):
         self.program = program
-        self.inertia = inertia_matrix(inertia)
+        self.inertia = inertia_matrix("body.inertia", inertia)
         wn = finite_number("control.natural_frequency_rad_s", natural_frequency)
         zeta = finite_number("control.damping_ratio", damping_ratio)
         if wn <= 0:

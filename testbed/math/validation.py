@@ -1,8 +1,99 @@
-"""Checks that a scenario's physical parameters describe something that can exist."""
+"""Checks of user-supplied numbers, vectors and inertias: each returns the checked value or
+raises InputError naming the field and the reason (never silently repairs bad input)."""
+
+from __future__ import annotations
+
+import math
 
 import numpy as np
 
 from testbed.errors import InputError
+
+
+def finite_number(field: str, value) -> float:
+    """`value` as a finite float."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise InputError(field, f"must be a number, got {value!r}") from None
+    if not math.isfinite(x):
+        raise InputError(field, f"must be finite, got {value!r}")
+    return x
+
+
+def positive_number(field: str, value, allow_inf: bool = False) -> float:
+    """`value` as a float > 0, finite unless `allow_inf` (plain floats: cheap enough for hot paths)."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise InputError(field, f"must be a number > 0, got {value!r}") from None
+    if not x > 0:  # also refuses nan
+        raise InputError(field, f"must be > 0, got {x:g}")
+    if not allow_inf and math.isinf(x):
+        raise InputError(field, "must be finite")
+    return x
+
+
+def number_in(field: str, value, low: float, high: float, low_open=False, high_open=False) -> float:
+    """`value` as a float in the interval [low, high] (either end open if asked)."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise InputError(field, "must be a number") from None
+    below = x <= low if low_open else x < low
+    above = x >= high if high_open else x > high
+    if math.isnan(x) or below or above:
+        lb, hb = "(" if low_open else "[", ")" if high_open else "]"
+        raise InputError(field, f"must be in {lb}{low}, {high}{hb}")
+    return x
+
+
+def positive_count(field: str, value) -> int:
+    """`value` as an int >= 1 (a bool is not a count)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise InputError(field, f"must be a positive integer, got {value!r}")
+    return int(value)
+
+
+def vector3(field: str, value) -> np.ndarray:
+    """`value` as a float (3,) array of finite numbers."""
+    try:
+        v = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise InputError(field, f"must be 3 finite numbers, got {value!r}") from None
+    if v.size != 3 or not np.all(np.isfinite(v)):
+        raise InputError(field, f"must be 3 finite numbers, got {v.tolist()}")
+    return v
+
+
+def check_unit_vector(vector, path: str, tol: float = 1e-9) -> np.ndarray:
+    """A unit 3-vector; a zero or non-unit vector is refused (never silently normalised)."""
+    v = vector3(path, vector)
+    norm = float(np.linalg.norm(v))
+    if norm == 0.0:
+        raise InputError(path, "must not be the zero vector")
+    if abs(norm - 1.0) > tol:
+        raise InputError(path, f"must be a unit vector, |v| = {norm:.9g}")
+    return v
+
+
+def unit_quaternion(field: str, q, tol: float = 1e-6) -> np.ndarray:
+    """q as a float (4,) array normalised to 1; |q| farther than `tol` from 1 is refused."""
+    q = np.asarray(q, dtype=float)
+    if q.shape != (4,) or not np.all(np.isfinite(q)):
+        raise InputError(field, f"must be 4 finite numbers (w, x, y, z), got {q.tolist()}")
+    norm = np.linalg.norm(q)
+    if abs(norm - 1.0) > tol:
+        raise InputError(field, f"must be a unit quaternion, |q| = {norm:.9g}")
+    return q / norm
+
+
+def principal_moments(field: str, inertia) -> np.ndarray:
+    """Three positive principal moments of inertia as a float (3,) array."""
+    values = np.asarray(inertia, dtype=float)
+    if values.shape != (3,) or not np.all(np.isfinite(values)) or np.any(values <= 0):
+        raise InputError(field, f"must be three positive principal moments, got {values.tolist()}")
+    return values
 
 
 def check_principal_inertia(inertia, path: str) -> None:
@@ -16,31 +107,27 @@ def check_principal_inertia(inertia, path: str) -> None:
             raise InputError(path, f"violates the triangle inequality: I[{i}] = {value:g} > sum of the other two")
 
 
-def check_unit_vector(vector, path: str) -> np.ndarray:
-    """A unit 3-vector; a zero or non-unit vector is refused (never silently normalised)."""
-    v = np.asarray(vector, float)
-    norm = float(np.linalg.norm(v))
-    if norm == 0.0:
-        raise InputError(path, "must not be the zero vector")
-    if abs(norm - 1.0) > 1e-9:
-        raise InputError(path, f"must be a unit vector, |v| = {norm:.9g}")
-    return v
+def check_positive_definite(matrix, path: str, symmetric: bool) -> np.ndarray:
+    """A 3x3 matrix M with x^T M x > 0 for x != 0; `symmetric` also asks M = M^T."""
+    m = np.asarray(matrix, float)
+    if m.shape != (3, 3) or not np.all(np.isfinite(m)):
+        raise InputError(path, "must be a 3x3 matrix of finite numbers")
+    if symmetric and not np.allclose(m, m.T, rtol=0, atol=1e-12 * np.abs(m).max()):
+        raise InputError(path, "must be a symmetric matrix")
+    smallest = float(np.linalg.eigvalsh((m + m.T) / 2)[0])
+    if smallest <= 0:
+        raise InputError(path, f"must be positive definite, its (symmetric part's) smallest eigenvalue is {smallest:g}")
+    return m
 
 
-def finite_number(field: str, value) -> float:
-    """`value` as a finite float, else InputError naming `field`."""
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(field, f"must be a number, got {value!r}") from None
-    if not np.isfinite(x):
-        raise InputError(field, f"must be finite, got {value!r}")
-    return x
-
-
-def positive_number(field: str, value) -> float:
-    """`value` as a finite float > 0, else InputError naming `field`."""
-    x = finite_number(field, value)
-    if x <= 0:
-        raise InputError(field, f"must be > 0, got {x:g}")
-    return x
+def inertia_matrix(field: str, inertia) -> np.ndarray:
+    """An inertia as a symmetric positive-definite (3, 3) matrix [kg m^2], from three principal
+    moments or a full tensor."""
+    a = np.asarray(inertia, dtype=float)
+    if a.shape == (3,):
+        a = np.diag(a)
+    if a.shape != (3, 3) or not np.all(np.isfinite(a)):
+        raise InputError(field, "must be 3 principal moments or a 3x3 matrix of finite numbers")
+    if np.abs(a - a.T).max() > 1e-12 * np.abs(a).max():
+        raise InputError(field, "must be symmetric")
+    return check_positive_definite(a, field, symmetric=True)

@@ -13,27 +13,12 @@ Pure numpy: no MuJoCo here. Units SI, rates in rad/s.
 import numpy as np
 
 from testbed.errors import InputError
+from testbed.math.validation import check_unit_vector, principal_moments
 from testbed.math.rk4 import rk4_steps
 
 # Tolerance for "this factor vanishes" in the observability test, relative to the size
 # of the quantities it is built from (inputs are floats from a scenario file).
 _REL_ZERO = 1e-12
-
-
-def _as_inertia(inertia):
-    inertia = np.asarray(inertia, dtype=float)
-    if inertia.shape != (3,) or not np.all(np.isfinite(inertia)) or np.any(inertia <= 0):
-        raise InputError("body.inertia", f"must be three positive principal moments, got {inertia}")
-    return inertia
-
-
-def _as_axis(sensor_axis):
-    p = np.asarray(sensor_axis, dtype=float)
-    if p.shape != (3,) or not np.all(np.isfinite(p)):
-        raise InputError("sensor.axis", f"must be a 3-vector, got {sensor_axis}")
-    if abs(np.linalg.norm(p) - 1.0) > 1e-6:
-        raise InputError("sensor.axis", f"must be a unit vector (|p| = {np.linalg.norm(p):.6g})")
-    return p
 
 
 def lebedev_matrices(inertia, spin_rate):
@@ -42,7 +27,7 @@ def lebedev_matrices(inertia, spin_rate):
     Lebedev 1976, eq. 4.1-4.2: a1 = (Iy - Iz)/Ix, a2 = (Iz - Ix)/Iy, a3 = (Ix - Iy)/Iz,
     A = [[0, a1 Omega, 0], [a2 Omega, 0, 0], [0, 0, 0]].  Returns (a, A), a = (a1, a2, a3).
     """
-    ix, iy, iz = _as_inertia(inertia)
+    ix, iy, iz = principal_moments("body.inertia", inertia)
     a = np.array([(iy - iz) / ix, (iz - ix) / iy, (ix - iy) / iz])
     w = float(spin_rate)
     A = np.array([[0.0, a[0] * w, 0.0], [a[1] * w, 0.0, 0.0], [0.0, 0.0, 0.0]])
@@ -81,8 +66,8 @@ def check_observable(inertia, spin_rate, sensor_axis):
     Tests each factor of a1 a2 Omega^3 gamma (a2 beta^2 - a1 alpha^2) and raises
     InputError naming the one that vanishes; returns None when all are non-zero.
     """
-    inertia = _as_inertia(inertia)
-    p = _as_axis(sensor_axis)
+    inertia = principal_moments("body.inertia", inertia)
+    p = check_unit_vector(sensor_axis, "sensor.axis", tol=1e-6)
     a, _ = lebedev_matrices(inertia, spin_rate)
     alpha, beta, gamma = p
     ix, iy, iz = inertia
@@ -192,7 +177,7 @@ def gyrostat_error_matrix(inertia, spin_rate, momentum):
     _, A = lebedev_matrices(inertia, spin_rate)
     h = np.asarray(momentum, dtype=float)
     cross = np.array([[0.0, -h[2], h[1]], [h[2], 0.0, -h[0]], [-h[1], h[0], 0.0]])
-    return A + cross / _as_inertia(inertia)[:, None]
+    return A + cross / principal_moments("body.inertia", inertia)[:, None]
 
 
 def lebedev_torque(inertia, k, z):
@@ -223,9 +208,9 @@ class LebedevObserver:
     """
 
     def __init__(self, inertia, spin_rate, sensor_axis, poles, max_substep=0.05, design_momentum=None):
-        self.inertia = _as_inertia(inertia)
+        self.inertia = principal_moments("body.inertia", inertia)
         self.spin_rate = float(spin_rate)
-        self.C = _as_axis(sensor_axis)
+        self.C = check_unit_vector(sensor_axis, "sensor.axis", tol=1e-6)
         self.l = observer_gain(self.inertia, self.spin_rate, self.C, poles)
         # Closed-loop gain: the paper's l, or l for A + I^-1 [H x] when the actuators hold H.
         self.l_closed = self.l if design_momentum is None else ackermann_gain(

@@ -21,37 +21,9 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from testbed.errors import InputError
+from testbed.math.validation import inertia_matrix, vector3
 
 RTOL = 1e-12
-
-
-def _inertia_matrix(inertia) -> np.ndarray:
-    """3x3 symmetric positive-definite inertia from a 3-vector (principal) or a 3x3 tensor."""
-    try:
-        arr = np.asarray(inertia, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InputError("inertia", f"must be 3 numbers or a 3x3 matrix ({exc})") from None
-    if arr.shape == (3,):
-        arr = np.diag(arr)
-    if arr.shape != (3, 3):
-        raise InputError("inertia", f"must be 3 numbers or a 3x3 matrix, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise InputError("inertia", "must be finite")
-    if not np.allclose(arr, arr.T, rtol=1e-12, atol=0.0):
-        raise InputError("inertia", "tensor must be symmetric")
-    if np.linalg.eigvalsh(arr)[0] <= 0.0:
-        raise InputError("inertia", "tensor must be positive definite")
-    return arr
-
-
-def _vector3(value, field: str) -> np.ndarray:
-    try:
-        v = np.asarray(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError) as exc:
-        raise InputError(field, f"must be 3 real numbers ({exc})") from None
-    if v.size != 3 or not np.all(np.isfinite(v)):
-        raise InputError(field, "must be 3 finite real numbers")
-    return v
 
 
 def _times(t) -> np.ndarray:
@@ -85,18 +57,18 @@ def gyrostat_omega(inertia, h_body, omega0, t, h_dot=None, rtol: float = RTOL,
     Integrates I w' + w x (I w + h) = -h' with DOP853 (rtol 1e-12 by default; atol
     defaults to 1e-15 of the problem's rate scale |w0| + |h| / I_min).
     """
-    inertia = _inertia_matrix(inertia)
-    w0 = _vector3(omega0, "omega0")
+    inertia = inertia_matrix("inertia", inertia)
+    w0 = vector3("omega0", omega0)
     t = _times(t)
     if callable(h_body):
         if h_dot is None or not callable(h_dot):
             raise InputError("h_dot", "a time-varying h_body(t) needs its derivative h_dot(t)")
         h_fun, hd_fun = h_body, h_dot
-        h_scale = float(np.linalg.norm(_vector3(h_body(0.0), "h_body(0)")))
+        h_scale = float(np.linalg.norm(vector3("h_body(0)", h_body(0.0))))
     else:
         if h_dot is not None:
             raise InputError("h_dot", "only allowed with a callable h_body")
-        h_const = _vector3(h_body, "h_body")
+        h_const = vector3("h_body", h_body)
         zero = np.zeros(3)
         h_fun, hd_fun = (lambda _t: h_const), (lambda _t: zero)
         h_scale = float(np.linalg.norm(h_const))
@@ -118,12 +90,12 @@ def gyrostat_omega(inertia, h_body, omega0, t, h_dot=None, rtol: float = RTOL,
 
 def gyrostat_momentum(inertia, h_body, omega) -> np.ndarray:
     """Body-frame total angular momentum L = I w + h (N m s); omega (n, 3), h (3,) or (n, 3)."""
-    inertia = _inertia_matrix(inertia)
+    inertia = inertia_matrix("inertia", inertia)
     return np.atleast_2d(omega) @ inertia.T + np.asarray(h_body, dtype=float)
 
 
 def gyrostat_energy(inertia, omega) -> np.ndarray:
     """Carrier-motion kinetic energy (1/2) w . I w (J) for each row of omega (n, 3)."""
-    inertia = _inertia_matrix(inertia)
+    inertia = inertia_matrix("inertia", inertia)
     w = np.atleast_2d(omega)
     return 0.5 * np.einsum("ni,ij,nj->n", w, inertia, w)

@@ -57,6 +57,7 @@ import numpy as np
 from scipy.special import elliprf, ellipkm1
 
 from testbed.errors import InputError
+from testbed.math.validation import vector3
 
 # |S| below this fraction of the two terms it is the difference of: within the data's
 # rounding, so the separatrix (sech/tanh) form is used.
@@ -176,19 +177,6 @@ def _agm_sncndn(v, m: float, m1: float):
     return sn, cn, dn
 
 
-def _as_vector3(value, field: str) -> np.ndarray:
-    """Validate a length-3 finite real vector (user input)."""
-    try:
-        v = np.asarray(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError) as exc:
-        raise InputError(field, f"must be 3 real numbers ({exc})") from None
-    if v.size != 3:
-        raise InputError(field, f"must have 3 components, got {v.size}")
-    if not np.all(np.isfinite(v)):
-        raise InputError(field, "must be finite")
-    return v
-
-
 def _exact_quadratic(inertia, w, i_ref) -> Fraction:
     """sum_i I_i (I_i - I_ref) w_i^2 = L^2 - 2T I_ref, exactly, from the float data."""
     i_ref = Fraction(float(i_ref))
@@ -214,10 +202,10 @@ def solve_torque_free(inertia, omega0) -> TorqueFreeSolution:
     docstring so that the same formulas cover both regimes, the separatrix, axisymmetric
     bodies (m = 0) and equilibria.
     """
-    inertia = _as_vector3(inertia, "inertia")
+    inertia = vector3("inertia", inertia)
     if np.any(inertia <= 0.0):
         raise InputError("inertia", "principal moments of inertia must be > 0")
-    w = _as_vector3(omega0, "omega0")
+    w = vector3("omega0", omega0)
     energy = 0.5 * float(np.dot(inertia, w * w))
     momentum = float(np.linalg.norm(inertia * w))
     lo, mid, hi = (int(i) for i in np.argsort(inertia, kind="stable"))

@@ -44,7 +44,7 @@ def scenario_fields(names: dict[str, str]):
         raise InputError(names.get(exc.field, exc.field), exc.reason) from None
 
 
-def principal_moments(inertia: np.ndarray, field: str = "model.inertia_kg_m2") -> np.ndarray:
+def principal_axes_moments(inertia: np.ndarray, field: str = "model.inertia_kg_m2") -> np.ndarray:
     """(Ix, Iy, Iz) of a 3x3 inertia whose body axes are principal (Lebedev 1976, eq. 1.2)."""
     inertia = np.asarray(inertia, float)
     moments = np.diag(inertia).copy()
@@ -99,7 +99,7 @@ class LebedevLaw:
         return {"spin_rate": params.omega_ref, "spin_rate_field": f"pipeline.law.{params.rate_key}"}
 
     def __init__(self, params: LebedevLawParams, ctx):
-        self.inertia = principal_moments(ctx.inertia)
+        self.inertia = principal_axes_moments(ctx.inertia)
         self.target = np.array([0.0, 0.0, params.omega_ref])
         with scenario_fields({"control.gains": "pipeline.law.gains_per_s", "body.inertia": "model.inertia_kg_m2"}):
             self.k = check_gains(self.inertia, params.omega_ref, params.gains_per_s)
@@ -147,7 +147,7 @@ class LebedevEstimator:
             raise InputError("pipeline.allocator.type", f"the lebedev estimator needs u = M / I: use ideal_torque "
                              f"or a steering law that reports torque_delivered, got {allocator.type!r}")
         self.torque_key = allocator.design["delivered_torque"]
-        self.inertia = principal_moments(ctx.inertia)
+        self.inertia = principal_axes_moments(ctx.inertia)
         names = {"sensor.axis": "pipeline.sensor.axis", "body.inertia": "model.inertia_kg_m2",
                  "control.spin_rate": law.design["spin_rate_field"],
                  "observer.poles": "pipeline.estimator.poles_per_s",

@@ -35,7 +35,8 @@ import numpy as np
 from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
 from testbed.steering.minimax_lp import nullspace_lp_rates
 from testbed.steering.result import SteeringResult, status_string
-from testbed.steering.validation import checked_problem, number_in
+from testbed.math.validation import number_in
+from testbed.steering.validation import checked_problem
 
 # Below |n| = NEAR_SINGULAR * |J|_F^3 the cofactor formulas lose > ~1e-12 relative accuracy.
 NEAR_SINGULAR = 1e-4

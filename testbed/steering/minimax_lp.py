@@ -35,7 +35,8 @@ from testbed.errors import InputError
 from testbed.steering.least_squares import (DEFAULT_RCOND, jacobian_svd, min_norm_solution,
                                             project_onto_range)
 from testbed.steering.result import SteeringResult, limited_result
-from testbed.steering.validation import checked_problem, number_in
+from testbed.math.validation import number_in
+from testbed.steering.validation import checked_problem
 
 LP_FORMS = ("epigraph", "paper")
 # Tight HiGHS tolerances: the answer is a simplex vertex, exact up to rounding once optimal.

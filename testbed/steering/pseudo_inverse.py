@@ -11,7 +11,8 @@ import numpy as np
 
 from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
 from testbed.steering.result import SteeringResult, limited_result
-from testbed.steering.validation import checked_problem, number_in
+from testbed.math.validation import number_in
+from testbed.steering.validation import checked_problem
 
 
 def pinv_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND) -> SteeringResult:

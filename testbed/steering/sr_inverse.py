@@ -24,7 +24,8 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
 from testbed.steering.result import SteeringResult, limited_result
-from testbed.steering.validation import checked_problem, number_in, positive_number
+from testbed.math.validation import number_in, positive_number
+from testbed.steering.validation import checked_problem
 
 
 def nakamura_damping(m: float, lambda0: float, m0: float) -> float:

@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from testbed.errors import InputError
+from testbed.math.validation import positive_number
 
 
 def checked_problem(J, h, Hdot, beta_rate_max):
@@ -40,30 +41,3 @@ def _float_rows(J) -> list[list[float]] | None:
     except (TypeError, ValueError):
         return None
     return rows if len(rows) == 3 and all(len(r) == 4 for r in rows) else None
-
-
-def positive_number(field: str, value, allow_inf: bool) -> float:
-    """float(value) if it is > 0 (and finite unless allow_inf), else InputError(field, ...)."""
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(field, "must be a number > 0") from None
-    if not x > 0:  # also catches nan
-        raise InputError(field, "must be > 0")
-    if not allow_inf and math.isinf(x):
-        raise InputError(field, "must be finite")
-    return x
-
-
-def number_in(field: str, value, low: float, high: float, low_open=False, high_open=False) -> float:
-    """float(value) if it lies in the interval [low, high] (ends open if asked), else InputError."""
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(field, "must be a number") from None
-    below = x <= low if low_open else x < low
-    above = x >= high if high_open else x > high
-    if math.isnan(x) or below or above:
-        lb, hb = "(" if low_open else "[", ")" if high_open else "]"
-        raise InputError(field, f"must be in {lb}{low}, {high}{hb}")
-    return x

@@ -30,7 +30,7 @@ import numpy as np
 
 from testbed.systems.cmg_rhombus.cluster import rhombus_axes
 from testbed.errors import InputError
-from testbed.math.validation import finite_number, positive_number
+from testbed.math.validation import finite_number, positive_count, positive_number
 
 # Directions u closer than this (|g_i × u|) to a gimbal axis are skipped (see module doc).
 _AXIS_EPS = 1e-6
@@ -52,7 +52,7 @@ def rhombus_gimbal_axes(alpha) -> np.ndarray:
 
 def fibonacci_sphere(n) -> np.ndarray:
     """n nearly uniform unit vectors (n, 3) on the sphere (golden-angle spiral)."""
-    n = _count("envelope.n_points", n)
+    n = positive_count("envelope.n_points", n)
     k = np.arange(n) + 0.5
     z = 1.0 - 2.0 * k / n
     r = np.sqrt(1.0 - z * z)
@@ -136,12 +136,6 @@ def write_envelope_rrd(path, alpha, h, n, axes=None) -> Path:
     rec.flush()
     rec.disconnect()
     return path
-
-
-def _count(field, value) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise InputError(field, f"must be a positive integer, got {value!r}")
-    return int(value)
 
 
 def _axes(axes) -> np.ndarray:

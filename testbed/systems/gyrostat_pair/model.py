@@ -84,3 +84,9 @@ def build(params: GyrostatPairParams, dt: float = 1e-3, integrator: str = "RK4")
     for i in range(3):
         spec.actuator(f"leader_rotor{i + 1}_speed").set_to_velocity(kv=J * bandwidth)
     return spec.compile()
+
+
+def body_acceleration(inertia, omega, moment, moment_rate) -> np.ndarray:
+    """w' of a gyrostat with principal inertias A and gyrostatic moment q (seed 003, eq. 1, 2):
+    A w' = -w x (A w + q) - q'."""
+    return (-np.cross(omega, inertia * omega + moment) - moment_rate) / inertia

@@ -14,7 +14,7 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.plant import Plant
-from testbed.systems.gyrostat_pair.model import ROLES, GyrostatPairParams
+from testbed.systems.gyrostat_pair.model import ROLES, GyrostatPairParams, body_acceleration
 
 
 class PairAddresses:
@@ -128,8 +128,7 @@ class GyrostatPairPlant(Plant):
         with w' = A^-1 (-p x (A p + q) - q') from the follower's eq. (2)."""
         q_dot = np.asarray(q_dot, float)
         p, q = self.role_omega("follower"), self.moment("follower")
-        p_dot = (-np.cross(p, self.A * p + q) - q_dot) / self.A
-        return q_dot + self.J * p_dot
+        return q_dot + self.J * body_acceleration(self.A, p, q, q_dot)
 
     def apply(self, command: dict[str, np.ndarray]) -> None:
         q_dot = command.get("follower_moment_rate")

@@ -29,6 +29,7 @@ from testbed.errors import InputError
 from testbed.math.rk4 import rk4_steps
 from testbed.pipeline import stage
 from testbed.schema import param
+from testbed.systems.gyrostat_pair.model import body_acceleration
 from testbed.systems.gyrostat_pair.observer import InvariantManifoldObserver
 
 
@@ -141,7 +142,7 @@ class Synchronisation:
         q_dot = law(w[0], w[1], p, q)
         if self.half:
             slope = (w - self.last[1]) / (t - self.last[0]) if self.last is not None and t > self.last[0] else 0.0
-            p_dot = (-np.cross(p, self.A * p + q) - q_dot) / self.A       # the follower's eq. (2)
+            p_dot = body_acceleration(self.A, p, q, q_dot)       # the follower's eq. (2)
             w_mid = w + self.half * slope
             q_dot = law(w_mid[0], w_mid[1], p + self.half * p_dot, q + self.half * q_dot)
         self.last = (t, w)

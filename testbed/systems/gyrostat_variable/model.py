@@ -24,6 +24,7 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.free_bus import BUS_BODY
+from testbed.math.euler_angles import wrap_angle
 from testbed.model_files import load_spec
 from testbed.schema import join, param
 
@@ -153,6 +154,13 @@ def program(params: VariableGyrostatParams, t):
     t = np.asarray(t, float)
     r0, r1 = np.radians(params.program_angles_deg), np.asarray(params.program_rates_rad_s, float)
     return r0 + np.multiply.outer(t, r1), np.broadcast_to(r1, t.shape + (3,)), np.zeros(t.shape + (3,))
+
+
+def deviations(params: VariableGyrostatParams, t, q, qd):
+    """x = q - r(t) (wrapped to [-pi, pi]) and x' = q' - r'(t): the deviations from the program
+    (Bezglasny & Khudyakova, section 3); one state or histories (t of shape (N,), q, q' (N, 3))."""
+    r, rd, _ = program(params, t)
+    return wrap_angle(q - r), qd - rd
 
 
 def inertia_about_point(model: mujoco.MjModel, data: mujoco.MjData, bodies, frame_body: str,

@@ -14,10 +14,10 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.free_bus import BUS_BODY, FreeBus
-from testbed.math.euler_angles import angle_rates, body_rates, euler_from_quat, quat_from_euler, wrap_angle
+from testbed.math.euler_angles import angle_rates, body_rates, euler_from_quat, quat_from_euler
 from testbed.plant import Plant
 from testbed.systems.gyrostat_variable.model import (
-    ACTUATORS, VariableGyrostatParams, inertia_about_point, prescribed, program)
+    ACTUATORS, VariableGyrostatParams, deviations, inertia_about_point, prescribed, program)
 
 ANGLES = ("phi", "psi", "theta")
 HINGES = ("rod", "rotor")
@@ -105,8 +105,7 @@ class VariableGyrostatPlant(Plant):
     def derived_signals(self, recorder) -> dict[str, np.ndarray]:
         """x = q - r(t) (wrapped) and x' = E(q)^-1 w - r' per Euler angle."""
         q = recorder["truth/euler_angles"]
-        r, rd, _ = program(self.params, recorder.time)
-        x, xd = wrap_angle(q - r), angle_rates(q, recorder["truth/omega"]) - rd
+        x, xd = deviations(self.params, recorder.time, q, angle_rates(q, recorder["truth/omega"]))
         out = {"truth/deviation": x, "truth/deviation_rate": xd}
         for i, name in enumerate(ANGLES):
             out[f"truth/deviation_{name}"] = x[:, i]

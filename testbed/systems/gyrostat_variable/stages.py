@@ -21,24 +21,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.math.euler_angles import angle_rates, euler_from_quat, wrap_angle
+from testbed.math.euler_angles import angle_rates, euler_from_quat
+from testbed.math.validation import check_positive_definite
 from testbed.pipeline import stage
 from testbed.schema import join, param
-from testbed.systems.gyrostat_variable.model import build, prescribed, program
+from testbed.systems.gyrostat_variable.model import build, deviations, prescribed, program
 from testbed.systems.gyrostat_variable.program_motion import EulerDynamics
 
 IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
-
-
-def check_positive_definite(matrix, path: str, symmetric: bool) -> np.ndarray:
-    """A 3x3 gain that is positive definite (x^T M x > 0 for x != 0); `symmetric` also asks M = M^T."""
-    m = np.asarray(matrix, float)
-    if symmetric and not np.allclose(m, m.T, rtol=0, atol=1e-12 * np.abs(m).max()):
-        raise InputError(path, "must be a symmetric matrix")
-    smallest = float(np.linalg.eigvalsh((m + m.T) / 2)[0])
-    if smallest <= 0:
-        raise InputError(path, f"must be positive definite, its (symmetric part's) smallest eigenvalue is {smallest:g}")
-    return m
 
 
 @dataclass(kw_only=True)
@@ -70,8 +60,7 @@ class ComputedTorque:
         q = euler_from_quat(estimate["quat"])
         qd = angle_rates(q, estimate["omega"])
         r, rd, rdd = program(self.model_params, t)
-        x = wrap_angle(q - r)
-        xd = qd - rd
+        x, xd = deviations(self.model_params, t, q, qd)
         ref = prescribed(t, self.model_params)
         hinge, hinge_rate = [ref["rod_angle"], ref["rotor_angle"]], [ref["rod_rate"], ref["rotor_rate"]]
         dyn = self.dynamics
