@@ -9,12 +9,12 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 from pathlib import Path
 
-from testbed import sweep_cli  # noqa: F401  (registers `sweep`)
+from testbed import sweep_cli  # noqa: F401  (registers the `sweep` subcommand)
 from testbed.commands import COMMANDS
 from testbed.errors import InputError
+from testbed.progress import advance_to, progress_bar
 from testbed.registry import discover
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
@@ -48,39 +48,16 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-class _Progress:
-    """A one-line progress bar on a terminal, shown only once a run takes more than 2 s."""
-
-    def __init__(self, label: str):
-        self.label, self.start, self.shown = label, time.perf_counter(), False
-
-    def __call__(self, fraction: float) -> None:
-        elapsed = time.perf_counter() - self.start
-        if elapsed < 2.0:
-            return
-        self.shown = True
-        bar = "#" * int(30 * fraction)
-        eta = elapsed * (1 - fraction) / max(fraction, 1e-9)
-        sys.stderr.write(f"\r{self.label} [{bar:<30}] {100 * fraction:5.1f}%  eta {eta:5.0f} s")
-        sys.stderr.flush()
-
-    def close(self) -> None:
-        if self.shown:
-            sys.stderr.write("\r" + " " * 70 + "\r")
-
-
 def _run_one(name: str, overrides, out: str | None, show_progress: bool):
     from testbed.runner import run_scenario
     from testbed.scenario import load_scenario
 
     scenario = load_scenario(name, overrides)
     out_path = Path(out) if out else Path("runs") / f"{scenario.name}.rrd"
-    progress = _Progress(scenario.name) if show_progress else None
-    try:
-        return run_scenario(scenario, out_path, progress)
-    finally:
-        if progress:
-            progress.close()
+    duration = scenario.sim.duration_s
+    with progress_bar(scenario.name, duration, "sim s") as bar:
+        bar.disable = bar.disable or not show_progress
+        return run_scenario(scenario, out_path, lambda fraction: advance_to(bar, fraction * duration))
 
 
 def _print_summary(result) -> None:

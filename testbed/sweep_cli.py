@@ -13,12 +13,11 @@ from __future__ import annotations
 
 import json
 import os
-import sys
-import time
 from pathlib import Path
 
 from testbed.commands import command
 from testbed.errors import InputError
+from testbed.progress import advance_to, progress_bar
 
 EXIT_OK, EXIT_FAILED = 0, 1
 
@@ -34,23 +33,6 @@ def add_parser(subparsers) -> None:
                    help="override a field of the base scenario before expanding")
     p.add_argument("--json", action="store_true", help="print the rows as one JSON list")
     p.set_defaults(func=run)
-
-
-class _Progress:
-    """`sweep NAME: done/total cases (failed), elapsed, eta` on one terminal line."""
-
-    def __init__(self, label: str):
-        self.label, self.start = label, time.perf_counter()
-
-    def __call__(self, done: int, total: int, failed: int) -> None:
-        elapsed = time.perf_counter() - self.start
-        eta = elapsed * (total - done) / max(done, 1)
-        sys.stderr.write(f"\rsweep {self.label}: {done}/{total} cases ({failed} failed)  "
-                         f"{elapsed:6.1f} s  eta {eta:5.0f} s ")
-        sys.stderr.flush()
-
-    def close(self) -> None:
-        sys.stderr.write("\n")
 
 
 def load_cases(name: str, overrides: list[str]):
@@ -75,12 +57,10 @@ def run(args) -> int:
         raise InputError("--workers", f"must be >= 1, got {workers}")
     name, fields, cases = load_cases(args.scenario, args.set)
     out = Path(args.out) if args.out else Path("runs") / f"{name}_sweep"
-    progress = _Progress(name) if sys.stderr.isatty() and not args.json else None
-    try:
-        rows = run_cases(cases, workers, out if args.rrd else None, progress)
-    finally:
-        if progress:
-            progress.close()
+    with progress_bar(f"sweep {name}", len(cases), "cases") as bar:
+        bar.disable = bar.disable or args.json
+        rows = run_cases(cases, workers, out if args.rrd else None,
+                         lambda done, total, failed: advance_to(bar, done, failed=failed))
     csv_path = write_csv(out / f"{name}.csv", rows, fields)
     if args.json:
         print(json.dumps(rows))

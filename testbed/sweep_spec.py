@@ -19,6 +19,7 @@ bad value or an unknown field refuses the whole sweep with one line naming the f
 
 from __future__ import annotations
 
+import copy
 import itertools
 from dataclasses import dataclass
 from typing import Any

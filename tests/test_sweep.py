@@ -49,6 +49,7 @@ def test_cases_are_grid_times_seeded_draws(tmp_path):
     assert "sweep" not in cases[0].data and BASE["pipeline"]["law"]["k"] == 1.0  # base untouched
 
 
+@pytest.mark.slow
 def test_sweep_csv_parallel_equals_serial_and_a_diverging_case_stays_in_its_row(tmp_path, capsys):
     data = dict(BASE, sweep={"grid": {"pipeline.law.k": [1.0, 4.0, 1.0e9]}})
     out = tmp_path / "out"
@@ -107,3 +108,22 @@ def test_bad_sweeps_are_one_line_exit_2_and_nothing_is_written(sweep, field, tmp
 def test_bad_worker_count_exit_2(tmp_path, capsys):
     assert main(["sweep", _write(tmp_path, BASE), "--workers", "0", "--out", str(tmp_path / "o")]) == 2
     assert "--workers" in capsys.readouterr().err
+
+
+def test_random_draws_follow_their_distributions_and_repeat_with_the_seed():
+    from testbed.sweep_spec import assignments, load_spec
+
+    block = {"random": {"a": {"choice": [1, "two", [3.0]]}, "b": {"integer": [2, 4]},
+                        "c": {"uniform": [-1.0, 1.0]}, "d": {"log_uniform": [0.1, 10.0]}},
+             "samples": 3000, "seed": 11}
+    cases = assignments(load_spec(block))
+    assert cases == assignments(load_spec(block))  # the seed fixes every draw
+    a = [c["a"] for c in cases]
+    # each choice about 1/3 of the time (binomial sigma ~ 26 draws)
+    for value in (1, "two", [3.0]):
+        assert abs(a.count(value) - 1000) < 130
+    assert sorted({c["b"] for c in cases}) == [2, 3, 4]
+    c = np.array([x["c"] for x in cases])
+    assert c.min() >= -1.0 and c.max() <= 1.0 and abs(c.mean()) < 0.06  # sigma of the mean 0.011
+    d = np.log10([x["d"] for x in cases])  # log-uniform: log10 uniform on [-1, 1]
+    assert d.min() >= -1.0 and d.max() <= 1.0 and abs(d.mean()) < 0.06

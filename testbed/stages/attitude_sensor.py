@@ -11,8 +11,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from testbed.errors import InputError
 from testbed.pipeline import stage
 from testbed.math.quaternion import quat_from_rotation_vector, quat_mul
