@@ -1,7 +1,8 @@
 """Issue 6 end to end: the gyrostat scenarios (seeds 002 and 003) through the runner, each
 against numbers that do not come from the code under test: an analytic Lagrangian of the
-variable gyrostat, the closed loop of (3.4) integrated by solve_ivp, gamma itself, and
-solve_ivp of eqs. (1), (2), (15)."""
+variable gyrostat, the closed loop of (3.4) integrated by solve_ivp, the exact exponential
+exp(-gamma t) of the observer error (eq. 14) fitted here, and solve_ivp of eqs. (1), (2), (15).
+The whole-scenario runs are marked slow (the 8 s observer runs are not)."""
 
 import numpy as np
 import pytest
@@ -62,6 +63,7 @@ def program_run():
     return run_scenario(load_scenario("gyrostat_program"), None, keep_data=True)
 
 
+@pytest.mark.slow
 def test_program_scenario_passes_and_decays(program_run):
     run = program_run
     assert run.status == "ok" and run.passed, run.checks
@@ -74,6 +76,7 @@ def test_program_scenario_passes_and_decays(program_run):
     assert run.metrics["final_deviation_rad"] < 1e-3 * np.linalg.norm(x[0])
 
 
+@pytest.mark.slow
 def test_program_force_is_the_lagrangian_inverse_dynamics(program_run):
     """Q_p of (3.1) recorded by the law against d/dt dT/dq' - dT/dq of the analytic kinetic
     energy along r(t) (central differences of the analytic T, no MuJoCo)."""
@@ -89,6 +92,7 @@ def test_program_force_is_the_lagrangian_inverse_dynamics(program_run):
         np.testing.assert_allclose(rec["law/program_force"][k], dpdt - dtdq, rtol=0, atol=2e-6 * np.abs(dpdt).max() + 1e-7)
 
 
+@pytest.mark.slow
 def test_deviations_follow_the_closed_loop_of_3_4(program_run):
     """A(t, q) x'' + (A'/2 + D) x' + C x = 0 with the analytic A(t, q) = E^T I(t) E, q = r + x,
     by solve_ivp, against the MuJoCo deviations."""
@@ -114,15 +118,37 @@ def test_deviations_follow_the_closed_loop_of_3_4(program_run):
 
 # --- seed 003 -------------------------------------------------------------------------------
 
+def _w3_error_decay(rec, gamma):
+    """eq. (14): eta' = -gamma eta exactly, so |w3_hat - w3| = |eta(0)| exp(-gamma t). Checked on
+    the recorded arrays, independently of the metric's fit, over the first stretch where the
+    error is above 1e-3 of its start (~7 time constants; below that it meets the ~1e-7 rad/s
+    floor of the sampled w1, w2 and the MuJoCo truth). Returns (the largest relative departure
+    from the exponential, the rate of a least-squares line through log|error|, the stretch's end)."""
+    ok = np.isfinite(rec["estimator/omega"][:, 2])  # the last row holds the truth only
+    t, error = rec.time[ok], np.abs(rec["estimator/omega"][ok, 2] - rec["truth/omega"][ok, 2])
+    assert t[0] == 0.0 and error[0] > 0.3
+    stretch = np.cumprod(error >= 1e-3 * error[0]).astype(bool)
+    departure = np.max(np.abs(error[stretch] / (error[0] * np.exp(-gamma * t[stretch])) - 1.0))
+    rate = -np.polyfit(t[stretch], np.log(error[stretch]), 1)[0]
+    return departure, rate, t[stretch][-1]
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("name, form", [("gyrostat_observer_arctan", "arctan"), ("gyrostat_observer_log", "log")])
 def test_observer_scenarios(name, form):
     run = run_scenario(load_scenario(name), None, keep_data=True)
     assert run.status == "ok" and run.passed, run.checks
     gamma = run.data.scenario.stages["estimator"][1].gamma_1_s
-    assert gamma == 0.5
-    # Measured (30 s): rates 0.50016 / 0.50034 (arctan / log), final errors 2.5e-7 / 3.3e-6 rad/s.
-    assert run.metrics["observer_decay_rate_1_s"] == pytest.approx(gamma, rel=0.01)
     rec = run.data.recorder
+    departure, rate, t_end = _w3_error_decay(rec, gamma)
+    assert t_end > 13.0  # ln(1e3) / gamma = 13.8 s
+    # Measured: departure 1.8e-4 / 8.9e-4 (arctan / log); rate 0.4999936 / 0.4999472.
+    assert departure < 3e-3
+    assert rate == pytest.approx(gamma, rel=1e-3)
+    # The metric (its own fit down to 1e-4 of the peak) agrees with this fit and with gamma.
+    # Measured (30 s): rates 0.50016 / 0.50034 (arctan / log), final errors 2.5e-7 / 3.3e-6 rad/s.
+    assert run.metrics["observer_decay_rate_1_s"] == pytest.approx(rate, rel=2e-3)
+    assert run.metrics["observer_decay_rate_1_s"] == pytest.approx(gamma, rel=0.01)
     error0 = abs(rec["estimator/omega"][0, 2] - rec["truth/omega"][0, 2])
     assert error0 > 0.3
     assert run.metrics["observer_final_error_rad_s"] < 1e-4 * error0
@@ -131,6 +157,19 @@ def test_observer_scenarios(name, form):
     from testbed.systems.gyrostat_pair.stages import make_observer
 
     assert make_observer(stage_context(run.data.scenario, np.eye(3)), gamma).form == form
+
+
+@pytest.mark.parametrize("name", ["gyrostat_observer_arctan", "gyrostat_observer_log"])
+def test_observer_error_decays_at_the_gamma_it_is_given(name):
+    """The decay follows the scenario's gamma, not a constant: gamma = 1 over 8 s."""
+    run = run_scenario(load_scenario(name, ["pipeline.estimator.gamma_1_s=1.0", "sim.duration_s=8"]), None,
+                       keep_data=True)
+    assert run.status == "ok"
+    departure, rate, t_end = _w3_error_decay(run.data.recorder, 1.0)
+    # Measured: departure 4.1e-4 (both forms), rate 0.99997, stretch to 6.9 s.
+    assert t_end > 6.5
+    assert departure < 3e-3
+    assert rate == pytest.approx(1.0, rel=1e-3)
 
 
 def _sync_ode(A, lam, w0, p0, q0, gamma, times):
@@ -152,6 +191,7 @@ def _sync_ode(A, lam, w0, p0, q0, gamma, times):
     return sol.y.T
 
 
+@pytest.mark.slow
 def test_sync_scenario_matches_equations_1_2_15():
     run = run_scenario(load_scenario("gyrostat_sync"), None, keep_data=True)
     assert run.status == "ok" and run.passed, run.checks

@@ -44,6 +44,7 @@ def test_disturbance_input_is_exact_and_separate_from_the_control():
     assert np.all(rec["truth/control_torque"] == 0.0)
 
 
+@pytest.mark.slow
 def test_law_torque_is_J_u_and_the_loop_follows_the_continuous_one(akor_run):
     rec = akor_run.data.recorder
     torque, u = rec["law/torque"][:-1], rec["law/u"][:-1, 0]  # the last sample is truth only
@@ -57,11 +58,13 @@ def test_law_torque_is_J_u_and_the_loop_follows_the_continuous_one(akor_run):
     assert np.max(np.abs(x[free] - ref)) < 3e-5
 
 
+@pytest.mark.slow
 def test_every_check_of_planar_akor_passes(akor_run):
     assert akor_run.status == "ok"
     assert akor_run.checks and all(c["passed"] for c in akor_run.checks), akor_run.checks
 
 
+@pytest.mark.slow
 def test_eta_and_settling_time_against_hand_values(akor_run):
     m = akor_run.metrics
     assert m["akor_eta_formula_1_s"] == pytest.approx(SQ3 / 2, rel=1e-12)
@@ -74,6 +77,7 @@ def test_eta_and_settling_time_against_hand_values(akor_run):
     assert m["akor_settling_rule_error_rel"] == pytest.approx(3 / (SQ3 / 2) / grid[outside] - 1, abs=1e-3)
 
 
+@pytest.mark.slow
 def test_steady_errors_against_hand_values(akor_run):
     """k S12 = 1, k S22 = sqrt(3): ER0 = (1, 0), ER1 = (-sqrt(3), 1); x(60) = m0'(ER0 20 + ER1) + ER0 m0."""
     m = akor_run.metrics
@@ -85,6 +89,7 @@ def test_steady_errors_against_hand_values(akor_run):
     assert x[-1] == pytest.approx([0.001 * (20 - SQ3) + 0.01, 0.001], rel=1e-4)
 
 
+@pytest.mark.slow
 def test_peak_power_against_a_brute_force_maximum(akor_run):
     """P = u x2 with u = -(x1 + sqrt(3) x2), maximised on a fine solve_ivp grid (eq. 18)."""
     grid = np.linspace(0, 6, 600_001)
@@ -93,6 +98,7 @@ def test_peak_power_against_a_brute_force_maximum(akor_run):
     assert akor_run.metrics["akor_power_peak_per_x10sq"] == pytest.approx(peak, rel=1e-3)
 
 
+@pytest.mark.slow
 def test_double_root_eta_gap_is_the_sampling_split_shrinking_as_sqrt_Tc():
     """b22 = 2 sqrt(b11/k): double root at -1 = -(k b11)^(1/4) (eq. 17). The zero-order hold
     splits it into real roots about -1 +- sqrt(Tc/2): the gap to eta_max halves when Tc / 4."""

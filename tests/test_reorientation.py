@@ -25,6 +25,7 @@ def runs():
             for law in ("minimax", "pinv")}
 
 
+@pytest.mark.slow
 def test_both_laws_pass_their_checks_and_reach_the_target(runs):
     target = quat_from_axis_angle(AXIS, np.radians(60.0))  # q0 = identity, rotation about a body axis
     for result in runs.values():
@@ -35,6 +36,7 @@ def test_both_laws_pass_their_checks_and_reach_the_target(runs):
         assert result.metrics["final_attitude_error_deg"] == pytest.approx(angle, abs=1e-9)
 
 
+@pytest.mark.slow
 def test_minimax_peak_gimbal_rate_is_lower_than_pinv(runs):
     minimax, pinv = (runs[law].metrics["peak_gimbal_rate_deg_s"] for law in ("minimax", "pinv"))
     assert minimax < 0.8 * pinv
@@ -44,6 +46,7 @@ def test_minimax_peak_gimbal_rate_is_lower_than_pinv(runs):
         assert m["peak_gimbal_rate_measured_deg_s"] == pytest.approx(m["peak_gimbal_rate_deg_s"], rel=0.01)
 
 
+@pytest.mark.slow
 def test_minimax_command_never_exceeds_pinv_on_the_same_demand(runs):
     """Sample by sample, for the recorded gimbal angles and wanted H' the min-max peak rate is
     at most the minimum-norm (pseudo-inverse) one: min-max optimality, eq. (21)."""
@@ -59,6 +62,7 @@ def test_minimax_command_never_exceeds_pinv_on_the_same_demand(runs):
         np.testing.assert_allclose(h * J @ rates[k], hdot, atol=1e-9 * (1 + np.linalg.norm(hdot)))
 
 
+@pytest.mark.slow
 def test_singularity_measure_recorded_every_step_matches_eq18(runs):
     rec = runs["pinv"].data.recorder
     beta, measured = rec["truth/gimbal_angle"][:-1], rec["allocator/singularity"][:-1, 0]
@@ -68,6 +72,7 @@ def test_singularity_measure_recorded_every_step_matches_eq18(runs):
     assert runs["pinv"].metrics["min_singularity_measure"] == pytest.approx(expected.min(), rel=1e-9)
 
 
+@pytest.mark.slow
 def test_near_singular_slew_minimax_closes_in_pinv_keeps_away():
     results = {law: run_scenario(load_scenario("reorient_near_singular", [f"pipeline.allocator.type={law}"]),
                                  None, keep_data=True) for law in ("minimax", "pinv")}
@@ -153,6 +158,7 @@ def test_slew_with_boundary_rates_meets_them():
     np.testing.assert_allclose(law.program.state(40.0)[1], np.radians(wT), atol=1e-12)
 
 
+@pytest.mark.slow
 def test_steering_extremes_count_every_control_step_whatever_the_trace_period(runs):
     """A trace 20x coarser than the control period changes nothing in the dynamics, so the
     steering extremes (taken by the allocator at every step) must equal those of the full trace."""

@@ -129,6 +129,7 @@ def batched_minimax_lp(Js, b):
     return np.abs(res.x.reshape(n, 5)[:, :4]).max(axis=1)
 
 
+@pytest.mark.slow
 def test_exact_minimax_equals_lp_on_10000_random_cases():
     rng = np.random.default_rng(5)
     n = 10_000

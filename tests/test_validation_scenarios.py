@@ -18,6 +18,7 @@ REQUIRED = {
 }
 
 
+@pytest.mark.slow  # whole-scenario runs (cmg_open_loop alone takes ~7 s)
 @pytest.mark.parametrize("name", sorted(REQUIRED))
 def test_validation_scenario_passes_its_checks(name, tmp_path):
     scenario = load_scenario(name)
