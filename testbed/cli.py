@@ -89,7 +89,7 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_check(args) -> int:
-    from testbed.scenario import SCENARIO_DIR
+    from testbed.shipped_files import SCENARIO_DIR
 
     names = args.scenarios or sorted(str(p) for p in SCENARIO_DIR.glob("*.yaml"))
     results = []
@@ -108,7 +108,8 @@ def _cmd_check(args) -> int:
 
 
 def _cmd_list(args) -> int:
-    from testbed.scenario import SCENARIO_DIR, read_yaml
+    from testbed.scenario import read_yaml
+    from testbed.shipped_files import SCENARIO_DIR
 
     for path in sorted(SCENARIO_DIR.glob("*.yaml")):
         data = read_yaml(path)

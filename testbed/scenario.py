@@ -30,9 +30,9 @@ from testbed import metrics, pipeline, references_registry, schema, systems_regi
 from testbed.errors import InputError
 from testbed.registry import discover
 from testbed.schema import param
+from testbed.shipped_files import SCENARIO_DIR
 from testbed.sweep_spec import load_spec
 
-SCENARIO_DIR = Path(__file__).resolve().parent.parent / "scenarios"
 
 
 @dataclass(kw_only=True)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from testbed.cli import main
-from testbed.scenario import SCENARIO_DIR
+from testbed.shipped_files import SCENARIO_DIR
 from testbed.trace import read_rrd
 
 SHORT_GYROSTAT = ["run", "gyrostat_free", "--set", "sim.duration_s=20", "--json"]

@@ -140,7 +140,7 @@ NEW_SYSTEM = '''"""A second rigid bus, to prove that a system is one folder and 
 from dataclasses import dataclass
 
 from testbed.free_bus import FreeBus, set_bus_mass
-from testbed.model_files import load_spec
+from testbed.shipped_files import load_spec
 from testbed.plant import Plant
 from testbed.schema import param
 from testbed.systems_registry import system

@@ -15,7 +15,8 @@ from pathlib import Path
 import pytest
 
 from testbed.runner import run_scenario
-from testbed.scenario import SCENARIO_DIR, load_scenario
+from testbed.scenario import load_scenario
+from testbed.shipped_files import SCENARIO_DIR
 
 PINNED = Path(__file__).with_name("data") / "pinned_metrics.json"
 # Shortened where the full run is long; the rest run in full.

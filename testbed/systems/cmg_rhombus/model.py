@@ -14,7 +14,7 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.free_bus import set_bus_mass
 from testbed.math.validation import check_principal_inertia
-from testbed.model_files import load_spec
+from testbed.shipped_files import load_spec
 from testbed.schema import join, param
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTOR_SPEED_NUMERIC, ROTORS, rhombus_axes
 

@@ -17,7 +17,7 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.free_bus import FreeBus
 from testbed.math.validation import check_principal_inertia, check_unit_vector
-from testbed.model_files import load_spec
+from testbed.shipped_files import load_spec
 from testbed.plant import Plant
 from testbed.references_registry import reference
 from testbed.schema import join, param

@@ -23,7 +23,7 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.math.validation import check_principal_inertia
-from testbed.model_files import load_spec
+from testbed.shipped_files import load_spec
 from testbed.schema import join, param
 
 XML_FILE = "gyrostat_pair.xml"

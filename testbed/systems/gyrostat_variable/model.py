@@ -25,7 +25,7 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.free_bus import BUS_BODY
 from testbed.math.euler_angles import wrap_angle
-from testbed.model_files import load_spec
+from testbed.shipped_files import load_spec
 from testbed.schema import join, param
 
 XML_FILE = "gyrostat_variable.xml"

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from testbed.model_files import load_spec
+from testbed.shipped_files import load_spec
 from testbed.schema import param
 
 JOINT, BODY, CONTROL, DISTURBANCE = "angle", "rig", "control", "disturbance"

@@ -14,7 +14,7 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.free_bus import FreeBus, set_bus_mass
 from testbed.math.validation import check_principal_inertia
-from testbed.model_files import load_spec
+from testbed.shipped_files import load_spec
 from testbed.plant import Plant
 from testbed.references_registry import reference
 from testbed.schema import join, param

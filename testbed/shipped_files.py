@@ -1,4 +1,5 @@
-"""The MJCF files in models/ (one per system) opened as MjSpec with the run's integrator and step."""
+"""The files shipped with the testbed: the MJCF models (one per system), opened as MjSpec with
+the run's integrator and step, and the scenario files."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ from pathlib import Path
 import mujoco
 
 MODELS_DIR = Path(__file__).resolve().parents[1] / "models"
+SCENARIO_DIR = Path(__file__).resolve().parents[1] / "scenarios"
 
 INTEGRATORS = {
     "Euler": mujoco.mjtIntegrator.mjINT_EULER,
