@@ -11,11 +11,11 @@ import json
 import sys
 from pathlib import Path
 
-from testbed import sweep_cli  # noqa: F401  (registers the `sweep` subcommand)
+from testbed import api, sweep_cli  # sweep_cli registers the `sweep` subcommand
 from testbed.commands import COMMANDS
 from testbed.errors import InputError
 from testbed.progress import advance_to, progress_bar
-from testbed.registry import discover
+from testbed.plugins import discover
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -49,15 +49,12 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _run_one(name: str, overrides, out: str | None, show_progress: bool):
-    from testbed.runner import run_scenario
-    from testbed.scenario import load_scenario
-
-    scenario = load_scenario(name, overrides)
+    scenario = api.load(name, overrides)
     out_path = Path(out) if out else Path("runs") / f"{scenario.name}.rrd"
     duration = scenario.sim.duration_s
     with progress_bar(scenario.name, duration, "sim s") as bar:
         bar.disable = bar.disable or not show_progress
-        return run_scenario(scenario, out_path, lambda fraction: advance_to(bar, fraction * duration))
+        return api.run(scenario, out_path, progress=lambda fraction: advance_to(bar, fraction * duration))
 
 
 def _print_summary(result) -> None:
@@ -111,7 +108,10 @@ def _cmd_list(args) -> int:
     from testbed.scenario import read_yaml
     from testbed.shipped_files import SCENARIO_DIR
 
-    for path in sorted(SCENARIO_DIR.glob("*.yaml")):
+    paths = sorted(SCENARIO_DIR.glob("*.yaml"))
+    if not paths:  # an install without its scenario files is broken, not an empty list
+        raise InputError("list", f"no scenario files (*.yaml) in {SCENARIO_DIR}")
+    for path in paths:
         data = read_yaml(path)
         description = str(data.get("description", "")).strip().splitlines()
         print(f"{path.stem:28s} {description[0] if description else ''}")
@@ -122,12 +122,8 @@ def _cmd_inspect(args) -> int:
     from testbed.trace import read_rrd
 
     path = Path(args.rrd)
-    if not path.is_file():
-        raise InputError("rrd", f"no such file: {path}")
-    try:
-        info = read_rrd(path)
-    except Exception as exc:  # a foreign or damaged file is bad input, not a crash
-        raise InputError("rrd", f"cannot read {path}: {exc}") from None
+    api.read(path)  # refuses a missing, foreign or damaged file (InputError)
+    info = read_rrd(path)
     if args.json:
         print(json.dumps(info))
         return EXIT_OK

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -59,6 +59,55 @@ class StageContext:
     integrator: str = "RK4"
     end_time: float = float("inf")  # time of the run's last sample [s]
     stages: dict = field(default_factory=dict)  # slot -> StageInfo of every configured stage
+
+
+Signals = dict[str, np.ndarray]
+
+
+class Sensor(Protocol):
+    """Slot `sensor`: the only stage that sees the truth.
+
+    measure(t [s], plant) -> {key: array}: what the instrument reports at t, e.g. a rate gyro
+    `y` [rad/s]. It may read `plant.omega()` (body rate, body axes [rad/s]), `plant.quat()`
+    (attitude (w, x, y, z), body to world) and a system's own read-outs."""
+
+    def __init__(self, params, ctx: StageContext): ...
+
+    def measure(self, t: float, plant) -> Signals: ...
+
+
+class Estimator(Protocol):
+    """Slot `estimator`: estimate(t, measurement, command) -> {key: array}; `measurement` is
+    the sensor's dict at t, `command` the allocator's output of the previous tick (e.g.
+    `body_torque` [N m] or `torque_delivered`). By convention `omega` [rad/s, body axes] and
+    `quat` (w, x, y, z) when it estimates the attitude."""
+
+    def __init__(self, params, ctx: StageContext): ...
+
+    def estimate(self, t: float, measurement: Signals, command: Signals) -> Signals: ...
+
+
+class Law(Protocol):
+    """Slot `law`: torque(t, estimate) -> {"torque": (3,) wanted body torque [N m, body axes],
+    ...anything else worth recording}."""
+
+    def __init__(self, params, ctx: StageContext): ...
+
+    def torque(self, t: float, estimate: Signals) -> Signals: ...
+
+
+class Allocator(Protocol):
+    """Slot `allocator`: allocate(t, demand, estimate, actuators) -> command. `demand` is the
+    law's dict, `actuators` what the plant's encoders report (e.g. `gimbal_angle` [rad],
+    `rotor_rate` [rad/s]). The class attribute `output` names the command key the plant takes
+    (`body_torque` (3,) [N m], `gimbal_rates` (4,) [rad/s], ...: `Plant.actuators`); the command
+    is held over the control period."""
+
+    output: str
+
+    def __init__(self, params, ctx: StageContext): ...
+
+    def allocate(self, t: float, demand: Signals, estimate: Signals, actuators: Signals) -> Signals: ...
 
 
 def stage(slot: str, name: str, params_cls: type | None = None):
@@ -115,31 +164,114 @@ def build(slot: str, name: str, params, ctx: StageContext):
     return stage_class(slot, name)(params, ctx)
 
 
-class Pipeline:
-    """One control tick: run the four stages in order and hand the command to the plant."""
+class StageFailed(RuntimeError):
+    """A stage raised, or returned something that is not a dict of finite arrays of steady shape."""
 
-    def __init__(self, sensor, estimator, law, allocator):
+    def __init__(self, time: float, slot: str, name: str, reason: str):
+        self.time, self.slot, self.name = time, slot, name
+        super().__init__(f"stage {slot} {name!r} failed at t = {time:.6g} s: {reason}")
+
+
+# Keys whose shape the slot's interface fixes (see the module doc); a command key's shape
+# comes from the plant (`Plant.actuators`).
+INTERFACE_SHAPES = {"law": {"torque": (3,)}}
+
+
+class OutputCheck:
+    """Checks one stage's output at every tick: a dict with its declared `outputs` keys, each a
+    finite numeric array whose shape is the interface's, or else the one it had at the first tick.
+    Applied to stages from outside the package (plug-ins); the built-ins are tested instead."""
+
+    def __init__(self, slot: str, name: str, required=(), shapes: dict | None = None):
+        self.slot, self.name, self.required = slot, name, tuple(required)
+        self.shapes = dict(shapes or {})
+
+    def __call__(self, t: float, out) -> None:
+        if not isinstance(out, dict):
+            raise StageFailed(t, self.slot, self.name, f"returned {type(out).__name__}, not a dict of arrays")
+        for key in self.required:
+            if key not in out:
+                raise StageFailed(t, self.slot, self.name, f"missing key {key!r} (it declares {list(self.required)})")
+        for key, value in out.items():
+            try:
+                array = np.asarray(value, dtype=float)
+            except (TypeError, ValueError):
+                raise StageFailed(t, self.slot, self.name, f"key {key!r} is not numeric: {value!r}") from None
+            expected = self.shapes.setdefault(key, array.shape)
+            if array.shape != expected:
+                raise StageFailed(t, self.slot, self.name, f"key {key!r} has shape {array.shape}, expected {expected}")
+            if not np.all(np.isfinite(array)):
+                raise StageFailed(t, self.slot, self.name, f"key {key!r} is not finite: {array.tolist()}")
+
+
+def _is_builtin(stage_object) -> bool:
+    return type(stage_object).__module__.startswith("testbed.")
+
+
+class Pipeline:
+    """One control tick: run the four stages in order and hand the command to the plant.
+
+    A stage that raises, or a plug-in stage whose output fails its `OutputCheck`, stops the
+    run with `StageFailed` naming the stage, the time and the reason."""
+
+    def __init__(self, sensor, estimator, law, allocator, checks: dict | None = None):
         self.sensor, self.estimator, self.law, self.allocator = sensor, estimator, law, allocator
         self.command: dict[str, np.ndarray] = {}
         # open-loop allocators ignore the actuator read-outs: skip reading them
         self._needs_actuators = getattr(allocator, "needs_actuators", True)
+        self.checks = checks or {}
 
     @classmethod
-    def from_config(cls, configs: dict, ctx: StageContext) -> "Pipeline":
+    def from_config(cls, configs: dict, ctx: StageContext, actuators: dict | None = None) -> "Pipeline":
+        """The four stages of `configs` (slot -> (name, params)); plug-in stages get an
+        `OutputCheck` (an allocator's command keys take their shapes from `actuators`)."""
         stages = [build(slot, *configs[slot], ctx) for slot in SLOTS]
-        return cls(*stages)
+        checks = {}
+        for slot, stage_object in zip(SLOTS, stages):
+            if _is_builtin(stage_object):
+                continue
+            name = configs[slot][0]
+            required = ctx.stages[slot].outputs if slot in ctx.stages else ()
+            output = getattr(stage_object, "output", None)
+            shapes = dict(INTERFACE_SHAPES.get(slot, {}))
+            if slot == "allocator" and output is not None:
+                required = tuple(required) + (output,)
+                shapes[output] = (actuators or {}).get(output)
+                shapes = {k: v for k, v in shapes.items() if v is not None}
+            checks[slot] = OutputCheck(slot, name, required, shapes)
+        return cls(*stages, checks=checks)
 
     def stages(self) -> dict:
         return dict(zip(SLOTS, (self.sensor, self.estimator, self.law, self.allocator)))
 
     def tick(self, t: float, plant) -> dict[str, dict[str, np.ndarray]]:
-        measurement = self.sensor.measure(t, plant)
-        estimate = self.estimator.estimate(t, measurement, self.command)
-        demand = self.law.torque(t, estimate)
-        actuators = plant.actuator_state() if self._needs_actuators else {}
-        self.command = self.allocator.allocate(t, demand, estimate, actuators)
-        plant.apply(self.command)
+        slot = "sensor"
+        try:
+            measurement = self.sensor.measure(t, plant)
+            self._check(slot, t, measurement)
+            slot = "estimator"
+            estimate = self.estimator.estimate(t, measurement, self.command)
+            self._check(slot, t, estimate)
+            slot = "law"
+            demand = self.law.torque(t, estimate)
+            self._check(slot, t, demand)
+            slot = "allocator"
+            actuators = plant.actuator_state() if self._needs_actuators else {}
+            self.command = self.allocator.allocate(t, demand, estimate, actuators)
+            self._check(slot, t, self.command)
+            plant.apply(self.command)
+        except StageFailed:
+            raise
+        except Exception as exc:  # the stage's own failure: name it, keep the trace so far
+            stage_object = getattr(self, slot)
+            raise StageFailed(t, slot, getattr(stage_object, "type_name", type(stage_object).__name__),
+                              f"{type(exc).__name__}: {exc}") from exc
         return {"sensor": measurement, "estimator": estimate, "law": demand, "allocator": self.command}
+
+    def _check(self, slot: str, t: float, out) -> None:
+        check = self.checks.get(slot)
+        if check is not None:
+            check(t, out)
 
 
 def params_dict(params) -> dict:

@@ -102,8 +102,8 @@ class Plant:
     def actuator_state(self) -> dict[str, np.ndarray]:
         return {}
 
-    # Command keys this plant's actuators take; other keys of a command are diagnostics.
-    actuators = ("body_torque",)
+    # Command keys this plant's actuators take, with their shapes; other keys of a command are diagnostics.
+    actuators = {"body_torque": (3,)}
 
     def apply(self, command: dict[str, np.ndarray]) -> None:
         """Body torque on the bus [N m, body axes]; a plant with other actuators extends this."""

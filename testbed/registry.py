@@ -1,33 +1,36 @@
-"""Named registries (systems, stages, metrics, references, commands) and their discovery.
+"""Named registries: systems, stages, metrics, references, commands.
 
 Every kind of plug-in point is a `Registry`: entries are added by a decorator in the module
-that defines them, looked up by the name a scenario gives. `discover()` imports every module
-of `testbed.stages` and every package of `testbed.systems` once, so a new stage file or
-system folder registers itself with no edit to any shared file.
+that defines them (testbed.plugins imports those modules), looked up by the name a scenario
+gives. A name is registered once, so nothing can shadow what is already there.
 """
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
 from typing import Any, Iterator
 
 from testbed.errors import InputError
 
-# Packages whose modules register entries when imported (generic stages, then systems).
-PLUGIN_PACKAGES = ("testbed.stages", "testbed.systems")
+
+class DuplicateName(ValueError):
+    """A name registered a second time (a plug-in must not shadow a built-in or another plug-in)."""
 
 
 class Registry:
     """name -> entry for one kind of thing; a name is registered once."""
 
+    every: list["Registry"] = []  # all registries, for snapshot() / restore()
+
     def __init__(self, kind: str):
         self.kind = kind
         self._entries: dict[str, Any] = {}
+        Registry.every.append(self)
 
     def add(self, name: str, entry: Any) -> None:
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"a {self.kind} name must be a non-empty string, got {name!r}")
         if name in self._entries:
-            raise ValueError(f"{self.kind} {name!r} is registered twice")
+            raise DuplicateName(f"{self.kind} {name!r} is already registered")
         self._entries[name] = entry
 
     def lookup(self, name: Any, field: str) -> Any:
@@ -49,16 +52,11 @@ class Registry:
         return iter(self._entries.items())
 
 
-_discovered = False
+def snapshot() -> list[dict]:
+    """The entries of every registry now (to undo a plug-in that failed half-way)."""
+    return [dict(r._entries) for r in Registry.every]
 
 
-def discover() -> None:
-    """Import every plug-in module of the package once (see module doc)."""
-    global _discovered
-    if _discovered:
-        return
-    for package_name in PLUGIN_PACKAGES:
-        package = importlib.import_module(package_name)
-        for info in pkgutil.iter_modules(package.__path__, package_name + "."):
-            importlib.import_module(info.name)
-    _discovered = True
+def restore(saved: list[dict]) -> None:
+    for registry, entries in zip(Registry.every, saved):
+        registry._entries = dict(entries)

@@ -12,9 +12,9 @@ from pathlib import Path
 
 from testbed import metrics, references_registry, systems_registry, trace
 from testbed.errors import InputError
-from testbed.pipeline import SLOTS, Pipeline, StageContext, params_dict, stage_info
+from testbed.pipeline import SLOTS, Pipeline, StageContext, StageFailed, params_dict, stage_info
 from testbed.plant import SimulationDiverged
-from testbed.recorder import Recorder
+from testbed.recorder import Recorder, Trace
 
 
 @dataclass
@@ -40,15 +40,24 @@ class RunData:
 
 @dataclass
 class RunResult:
+    """The outcome of a run (or of an `.rrd` read back): status, metrics, checks and the trace.
+
+    status: "ok", "diverged" (MuJoCo hit a bad state) or "error" (a stage raised or returned
+    bad output); error: the one-line reason, else None; metrics: name -> value; checks: one
+    dict per check (name, value, limit, passed); trace: every recorded signal as numpy arrays
+    (`result.trace["truth/omega"] -> (t, values)`); data: what the metrics saw (kept on request).
+    """
+
     scenario: str
     sim_s: float
     wall_s: float
-    status: str                      # "ok" or "diverged"
+    status: str
     error: str | None
     metrics: dict[str, float]
     checks: list[dict]
     rrd: str | None
     data: RunData | None = None
+    trace: Trace | None = None
 
     @property
     def passed(self) -> bool:
@@ -67,7 +76,7 @@ def prepare(scenario):
     plant.record_energy = scenario.stages["allocator"][0] == "none"
     plant.initialise(scenario.initial)
     ctx = stage_context(scenario, plant.locked_inertia(), plant.description())
-    pipeline = Pipeline.from_config(scenario.stages, ctx)
+    pipeline = Pipeline.from_config(scenario.stages, ctx, plant.actuators)
     output = getattr(pipeline.allocator, "output", None)
     if output is not None and output not in plant.actuators:
         raise InputError("pipeline.allocator.type", f"{scenario.stages['allocator'][0]} commands {output}, "
@@ -87,7 +96,9 @@ def stage_context(scenario, inertia, description=None) -> StageContext:
 
 
 def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = False) -> RunResult:
-    """Run `scenario`, write the trace to `out` (None: no file) and evaluate its checks."""
+    """Run `scenario`, write the trace to `out` (None: no file) and evaluate its checks;
+    `keep_data` keeps the trace and what the metrics saw in the result; `progress(fraction)`
+    is called about 200 times."""
     wall0 = time.perf_counter()
     plant, pipeline, reference = prepare(scenario)
     sim = scenario.sim
@@ -100,6 +111,8 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
         _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress)
     except SimulationDiverged as exc:
         status, error = "diverged", str(exc)
+    except StageFailed as exc:
+        status, error = "error", str(exc)
     if recorder.count:
         for key, values in plant.derived_signals(recorder).items():
             recorder.add_series(key, values)
@@ -114,7 +127,8 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     checks = metrics.evaluate_checks(scenario, values) if values else [
         {"name": n, "value": float("nan"), "limit": lim.text, "passed": False} for n, lim in scenario.checks.items()]
     result = RunResult(scenario.name, recorder.time[-1] if recorder.count else 0.0, 0.0, status, error,
-                       values, checks, str(out) if out else None, data if keep_data else None)
+                       values, checks, str(out) if out else None, data if keep_data else None,
+                       Trace.from_recorder(recorder) if keep_data else None)
     if out is not None:
         result.wall_s = time.perf_counter() - wall0
         summary = result.as_json() | {"stages": {slot: {"type": name, **params_dict(p)}

@@ -4,6 +4,7 @@ Layout (every key optional unless marked; units are in the key names, SI and rad
 
     name: str                       # required
     description: str
+    plugins: [FILE.py | module]     # user code that registers stages, systems, metrics (testbed.plugins)
     model: {system: NAME, ...}      # required: the physical system and its parameters (testbed.systems)
     initial: {omega_deg_s | omega_rad_s: [3], quat: [w, x, y, z]}
     sim: {duration_s (required), dt_s, integrator, control_period_s, trace_period_s}
@@ -28,7 +29,7 @@ import yaml
 
 from testbed import metrics, pipeline, references_registry, schema, systems_registry
 from testbed.errors import InputError
-from testbed.registry import discover
+from testbed.plugins import discover, load_plugins
 from testbed.schema import param
 from testbed.shipped_files import SCENARIO_DIR
 from testbed.sweep_spec import load_spec
@@ -99,6 +100,7 @@ class CheckLimit:
 class _RawScenario:
     name: str
     description: str = ""
+    plugins: list[str] = param([], doc="plug-in .py files (relative to this file) or module names")
     model: dict[str, Any]
     initial: InitialState = field(default_factory=InitialState)
     sim: SimConfig = param()
@@ -128,6 +130,7 @@ def parse(data: dict, source: str = "") -> Scenario:
     """Validate a raw scenario mapping (see module doc) into a `Scenario`."""
     discover()
     raw = schema.load(_RawScenario, data)
+    load_plugins(raw.plugins, Path(source).parent if source else Path.cwd())
     if raw.sweep is not None:  # the block itself is checked here; its cases by testbed.sweep
         load_spec(raw.sweep)
     system_name, model = systems_registry.load_params(raw.model, "model")

@@ -1,5 +1,10 @@
 """The files shipped with the testbed: the MJCF models (one per system), opened as MjSpec with
-the run's integrator and step, and the scenario files."""
+the run's integrator and step, and the scenario files.
+
+They live at the top of the repository (models/, scenarios/); testbed/models and
+testbed/scenarios link to them, and a wheel carries them there as package data, so the same
+path serves a checkout, an editable install and an installed wheel, from any working directory.
+"""
 
 from __future__ import annotations
 
@@ -7,8 +12,8 @@ from pathlib import Path
 
 import mujoco
 
-MODELS_DIR = Path(__file__).resolve().parents[1] / "models"
-SCENARIO_DIR = Path(__file__).resolve().parents[1] / "scenarios"
+MODELS_DIR = Path(__file__).resolve().parent / "models"
+SCENARIO_DIR = Path(__file__).resolve().parent / "scenarios"
 
 INTEGRATORS = {
     "Euler": mujoco.mjtIntegrator.mjINT_EULER,

@@ -18,11 +18,12 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from testbed.recorder import Recorder
+from testbed.recorder import Recorder, Trace
 
 APP_ID = "gyrodyne-testbed"
 RESULT_ENTITY = "run/result"
 TIMELINE = "sim_time"
+SCALARS = "Scalars:scalars"
 
 # Unit and component labels by signal name; a signal not listed is plotted unlabelled.
 UNITS = {
@@ -172,3 +173,29 @@ def read_rrd(path: Path) -> dict:
         raise ValueError(f"{path}: no {RESULT_ENTITY} entity: not a testbed run")
     span = [float(t_min), float(t_max)] if np.isfinite(t_min) else [0.0, 0.0]
     return {"entities": entities, "time_span_s": span, "result": result}
+
+
+def read_signals(path: Path) -> Trace:
+    """Every recorded signal of an `.rrd` written by `write_rrd`, as a `Trace` (times to the
+    nanosecond the file stores)."""
+    from rerun.chunk import RrdReader
+
+    parts: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
+    for chunk in RrdReader(str(path)).stream():
+        entity = str(chunk.entity_path).lstrip("/")
+        batch = chunk.to_record_batch()
+        if SCALARS not in batch.schema.names or TIMELINE not in batch.schema.names:
+            continue
+        column = batch.column(SCALARS)
+        values = column.flatten().to_numpy(zero_copy_only=False).reshape(batch.num_rows, -1)
+        times = batch.column(TIMELINE).cast("int64").to_numpy() / 1e9
+        parts.setdefault(entity, []).append((times, values))
+    signals = {}
+    for key, chunks in parts.items():
+        t = np.concatenate([c[0] for c in chunks])
+        v = np.concatenate([c[1] for c in chunks])
+        order = np.argsort(t, kind="stable")
+        t, v = t[order], v[order]
+        keep = ~np.all(np.isnan(v), axis=1)
+        signals[key] = (t[keep], v[keep])
+    return Trace(signals)

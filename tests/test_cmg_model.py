@@ -7,7 +7,7 @@ import pytest
 
 from testbed.errors import InputError
 from testbed.free_bus import FreeBus
-from testbed.registry import discover
+from testbed.plugins import discover
 from testbed.systems import cmg_rhombus, satellite
 from testbed.systems.cmg_rhombus import ClusterGeometry, CmgRhombus, CmgRhombusParams
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, ROTORS, rhombus_axes

@@ -125,7 +125,7 @@ def test_shared_machinery_names_no_system(path):
 
 
 def test_every_system_folder_registers_its_own_system_and_has_its_model():
-    from testbed.registry import discover
+    from testbed.plugins import discover
     from testbed.systems_registry import SYSTEMS
 
     discover()
@@ -199,7 +199,7 @@ def test_a_new_system_and_a_new_stage_need_no_edit_to_a_shared_file(tmp_path):
     """Copy the project, add models/twin_bus.xml, one system folder and one stage file, and run
     them: I w' = M from rest about a principal axis gives |w(T)| = M T / I (2 * 10 / 500)."""
     copy = tmp_path / "project"
-    shutil.copytree(PACKAGE, copy / "testbed", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(PACKAGE, copy / "testbed", symlinks=True, ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copytree(ROOT / "models", copy / "models")
     before = {p.relative_to(copy): p.read_bytes() for p in copy.rglob("*") if p.is_file()}
     shutil.copy(ROOT / "models" / "satellite.xml", copy / "models" / "twin_bus.xml")

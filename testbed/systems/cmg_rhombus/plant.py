@@ -95,7 +95,7 @@ class CmgRhombus(FreeBus):
 class CmgPlant(Plant):
     """Truth adds gimbal angles and rates, rotor rates and the cluster momentum H (body frame)."""
 
-    actuators = ("body_torque", "gimbal_rates")
+    actuators = {"body_torque": (3,), "gimbal_rates": (N_CMG,)}
 
     def __init__(self, model):
         super().__init__(CmgRhombus(model))

@@ -31,7 +31,7 @@ class PairAddresses:
 
 
 class GyrostatPairPlant(Plant):
-    actuators = ("follower_moment_rate",)
+    actuators = {"follower_moment_rate": (3,)}
 
     def __init__(self, model: mujoco.MjModel, params: GyrostatPairParams):
         super().__init__(PairAddresses(model))

@@ -20,7 +20,7 @@ from testbed.schema import whole_multiple
 
 
 class PlanarPlant(Plant):
-    actuators = ("body_torque",)
+    actuators = {"body_torque": (3,)}
 
     def __init__(self, params: PlanarParams, sim):
         super().__init__(PlanarRig(build(params, sim.dt_s, sim.integrator)))

@@ -1,0 +1,59 @@
+"""The testbed's Python API (`import testbed`): load a scenario, run it, read a run back.
+
+    scenario = testbed.load("reorient_minimax", ["pipeline.allocator.beta_rate_max_deg_s=4"])
+    result = testbed.run(scenario, out="runs/x.rrd")     # out=None: no file
+    result.status, result.passed, result.metrics["final_attitude_error_deg"]
+    t, omega = result.trace["truth/omega"]               # (N,), (N, 3) [s], [rad/s]
+    again = testbed.read("runs/x.rrd")                   # the same structure, from the file
+
+Bad input raises `testbed.InputError` (its `field` names the scenario key); a run that
+diverges or whose stage fails returns status "diverged" or "error" with the trace so far.
+The command line (`testbed run | check | inspect`) is built on these three functions.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from testbed.errors import InputError
+from testbed.runner import RunResult, run_scenario
+from testbed.scenario import Scenario, load_scenario, parse
+from testbed.trace import read_rrd, read_signals
+
+
+def load(name_or_path: str | Path, overrides: list[str] = ()) -> Scenario:
+    """A validated scenario: a file path or a name from the shipped scenarios, with
+    `key.path=value` overrides applied first (validated exactly like the file)."""
+    return load_scenario(str(name_or_path), list(overrides))
+
+
+def run(scenario: Scenario | str | Path | dict, out: str | Path | None = None,
+        overrides: list[str] = (), progress=None) -> RunResult:
+    """Run a scenario (a `Scenario`, a name or path, or a raw mapping as a YAML file holds it) and
+    return its result with the whole trace; `out` also writes the `.rrd` there."""
+    if isinstance(scenario, dict):
+        if overrides:
+            raise InputError("overrides", "apply overrides to the mapping itself")
+        scenario = parse(scenario)
+    elif not isinstance(scenario, Scenario):
+        scenario = load(scenario, overrides)
+    elif overrides:
+        raise InputError("overrides", "a loaded Scenario is already validated: pass overrides to load()")
+    return run_scenario(scenario, Path(out) if out is not None else None, progress, keep_data=True)
+
+
+def read(path: str | Path) -> RunResult:
+    """A run read back from its `.rrd`: the stored result (status, metrics, checks) and every
+    recorded signal as arrays. A file that is not a testbed run raises InputError."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("rrd", f"no such file: {path}")
+    try:
+        stored = read_rrd(path)["result"]
+        trace = read_signals(path)
+    except Exception as exc:  # a foreign or damaged file is bad input, not a crash
+        raise InputError("rrd", f"cannot read {path}: {exc}") from None
+    fields = ("scenario", "sim_s", "wall_s", "status", "error", "metrics", "checks")
+    if not isinstance(stored, dict) or not all(k in stored for k in fields):
+        raise InputError("rrd", f"{path}: its run/result entity is not a testbed result")
+    return RunResult(*(stored[k] for k in fields), rrd=str(path), trace=trace)

@@ -1,0 +1,108 @@
+"""Where stages, systems, metrics and references come from: the package's own folders, installed
+plug-in packages, and the Python files or modules a scenario names.
+
+- Built-ins: every module of `testbed.stages` and every package of `testbed.systems`
+  (`discover()`), so a new stage file or system folder needs no edit to any shared file.
+- Installed plug-ins: every entry point of the group `testbed.plugins` (a package declares
+  `[project.entry-points."testbed.plugins"] name = "its_module"`), loaded by `discover()`.
+- Scenario plug-ins: `plugins: [my_laws.py, mylab.controllers]` in a scenario file: a file
+  path relative to the scenario file, or an importable module name (`load_plugins`).
+
+A plug-in registers with the same decorators as the built-ins (`testbed.stage`,
+`testbed.system`, `testbed.metric`, `testbed.reference`). It may not take a name that is
+already registered: a plug-in that would shadow a built-in is refused; give it a namespaced
+name such as "mylab.pd". A plug-in is code the user chose to run, with the user's rights.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import importlib.metadata
+import importlib.util
+import pkgutil
+import sys
+import traceback
+from pathlib import Path
+
+from testbed.errors import InputError
+from testbed.registry import DuplicateName, restore, snapshot
+
+BUILTIN_PACKAGES = ("testbed.stages", "testbed.systems")
+ENTRY_POINT_GROUP = "testbed.plugins"
+
+_discovered = False
+_loaded: dict[str, object] = {}  # resolved file path or module name -> module
+
+
+def discover() -> None:
+    """Import the built-in plug-in folders once, then the installed plug-in packages."""
+    global _discovered
+    if _discovered:
+        return
+    for package_name in BUILTIN_PACKAGES:
+        package = importlib.import_module(package_name)
+        for info in pkgutil.iter_modules(package.__path__, package_name + "."):
+            importlib.import_module(info.name)
+    _discovered = True
+    for entry in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
+        _load(f"entry point {entry.name} ({entry.value})", entry.value, entry.load, where=entry.value)
+
+
+def load_plugins(entries: list[str], base: Path, field: str = "plugins") -> None:
+    """Import a scenario's plug-ins: `base`-relative .py files or module names, each once per process."""
+    discover()
+    for i, entry in enumerate(entries):
+        path = (base / entry).resolve() if entry.endswith(".py") else None
+        if path is not None:
+            if not path.is_file():
+                raise InputError(f"{field}[{i}]", f"no such plug-in file: {path}")
+            _load(f"{field}[{i}]", str(path), lambda p=path: _import_file(p), where=str(path))
+        else:
+            if importlib.util.find_spec(entry.split(".")[0]) is None:
+                raise InputError(f"{field}[{i}]", f"no module named {entry!r} (a file needs the .py ending)")
+            _load(f"{field}[{i}]", entry, lambda e=entry: importlib.import_module(e), where=entry)
+
+
+def _load(field: str, key: str, do_import, where: str) -> None:
+    """Run one plug-in import; on any failure undo what it registered and raise InputError
+    naming the plug-in, and the file and line where it failed."""
+    if key in _loaded:
+        return
+    saved = snapshot()
+    try:
+        _loaded[key] = do_import()
+    except DuplicateName as exc:
+        restore(saved)
+        raise InputError(field, f"{where}: {exc}: a plug-in may not shadow a built-in or another "
+                                f"plug-in; give it a namespaced name (e.g. 'mylab.<name>')") from None
+    except Exception as exc:  # the plug-in's own code failed: report where, not our traceback
+        restore(saved)
+        raise InputError(field, f"{_failure_place(exc, where)}: {type(exc).__name__}: {exc}") from None
+
+
+def _failure_place(exc: BaseException, where: str) -> str:
+    """file:line of the failure inside the plug-in (its last frame), else the plug-in's name."""
+    if isinstance(exc, SyntaxError) and exc.filename:
+        return f"{exc.filename}:{exc.lineno}"
+    frames = [f for f in traceback.extract_tb(exc.__traceback__)
+              if "importlib" not in f.filename and not f.filename.startswith("<frozen")
+              and Path(f.filename).resolve() != Path(__file__).resolve()]
+    return f"{frames[-1].filename}:{frames[-1].lineno}" if frames else where
+
+
+def _import_file(path: Path):
+    """Import a plug-in file as its own module (named after its path, so two files may share a name)."""
+    name = f"testbed_plugin_{path.stem}_{hashlib.sha1(str(path).encode()).hexdigest()[:8]}"
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    sys.path.insert(0, str(path.parent))  # the plug-in may import its neighbours, as a script would
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[name]
+        raise
+    finally:
+        sys.path.remove(str(path.parent))
+    return module
