@@ -1,4 +1,17 @@
-"""The one error type for bad user input (scenario fields, CLI options)."""
+"""The one error type for bad user input (scenario fields, CLI options), and how it quotes values."""
+
+import reprlib
+
+_REPR = reprlib.Repr()
+_REPR.maxlevel, _REPR.maxlist, _REPR.maxdict, _REPR.maxstring, _REPR.maxother, _REPR.maxlong = 3, 6, 4, 60, 60, 40
+QUOTE_LIMIT = 80
+
+
+def quoted(value) -> str:
+    """A short repr of a user's value for an error message: at most QUOTE_LIMIT characters,
+    whatever its size or nesting (reprlib never expands a huge or shared structure)."""
+    text = _REPR.repr(value)
+    return text if len(text) <= QUOTE_LIMIT else text[: QUOTE_LIMIT - 3] + "..."
 
 
 class InputError(Exception):
@@ -6,5 +19,5 @@ class InputError(Exception):
 
     def __init__(self, field: str, reason: str):
         self.field = field
-        self.reason = reason
-        super().__init__(f"{field}: {reason}")
+        self.reason = " ".join(str(reason).split())  # one line, whatever the reason holds
+        super().__init__(f"{field}: {self.reason}")

@@ -26,7 +26,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from testbed import schema
-from testbed.errors import InputError
+from testbed.errors import InputError, quoted
 from testbed.registry import Registry
 
 SLOTS = ("sensor", "estimator", "law", "allocator")
@@ -196,7 +196,7 @@ class OutputCheck:
             try:
                 array = np.asarray(value, dtype=float)
             except (TypeError, ValueError):
-                raise StageFailed(t, self.slot, self.name, f"key {key!r} is not numeric: {value!r}") from None
+                raise StageFailed(t, self.slot, self.name, f"key {key!r} is not numeric: {quoted(value)}") from None
             expected = self.shapes.setdefault(key, array.shape)
             if array.shape != expected:
                 raise StageFailed(t, self.slot, self.name, f"key {key!r} has shape {array.shape}, expected {expected}")

@@ -20,16 +20,15 @@ first, so they are validated exactly like the file.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-import re
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-import yaml
 
 from testbed import metrics, pipeline, references_registry, schema, systems_registry
-from testbed.errors import InputError
+from testbed.errors import InputError, quoted
 from testbed.plugins import discover, load_plugins
+from testbed.scenario_yaml import read_yaml, yaml_load
 from testbed.schema import param
 from testbed.shipped_files import SCENARIO_DIR
 from testbed.sweep_spec import load_spec
@@ -160,49 +159,15 @@ def resolve_path(name_or_path: str) -> Path:
     raise InputError("scenario", f"no such file or scenario name: {name_or_path}")
 
 
-class _Loader(yaml.SafeLoader):
-    """YAML 1.1 reads `1e-9` (no dot) as a string; scientists write it, so read it as a float."""
-
-
-_Loader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
-                    |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
-                    |\.[0-9_]+(?:[eE][-+][0-9]+)?
-                    |[-+]?\.(?:inf|Inf|INF)
-                    |\.(?:nan|NaN|NAN))$""", re.X),
-    list("-+0123456789."),
-)
-
-
-def yaml_load(text: str):
-    return yaml.load(text, Loader=_Loader)
-
-
-def read_yaml(path: Path) -> dict:
-    try:
-        data = yaml_load(path.read_text())
-    except yaml.YAMLError as exc:
-        where = getattr(exc, "problem_mark", None)
-        line = f" at line {where.line + 1}" if where else ""
-        raise InputError(str(path), f"not valid YAML{line}") from None
-    if not isinstance(data, dict):
-        raise InputError(str(path), "a scenario file must be a YAML mapping")
-    return data
-
-
 def apply_override(data: dict, assignment: str) -> None:
     """Apply one `key.path=value` override in place; the value is parsed as YAML."""
     if "=" not in assignment:
-        raise InputError("--set", f"expected key.path=value, got {assignment!r}")
+        raise InputError("--set", f"expected key.path=value, got {quoted(assignment)}")
     key, text = assignment.split("=", 1)
     parts = key.strip().split(".")
     if not all(parts):
         raise InputError("--set", f"bad key path {key!r}")
-    try:
-        value = yaml_load(text)
-    except yaml.YAMLError:
-        raise InputError(key, f"cannot parse value {text!r}") from None
+    value = yaml_load(text, f"--set {key}")
     node = data
     for i, part in enumerate(parts[:-1]):
         child = node.get(part)

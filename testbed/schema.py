@@ -14,7 +14,7 @@ import types
 import typing
 from typing import Any, Literal, get_args, get_origin
 
-from testbed.errors import InputError
+from testbed.errors import InputError, quoted
 
 _MISSING = dataclasses.MISSING
 
@@ -56,42 +56,42 @@ def _convert(tp, value, path: str, meta: dict):
         return value
     if origin is Literal:
         if value not in get_args(tp):
-            raise InputError(path, f"must be {_type_name(tp)}, got {value!r}")
+            raise InputError(path, f"must be {_type_name(tp)}, got {quoted(value)}")
         return value
     if dataclasses.is_dataclass(tp):
         return load(tp, value, path)
     if tp is float:
         if not _is_number(value):
-            raise InputError(path, f"must be a number, got {value!r}")
+            raise InputError(path, f"must be a number, got {quoted(value)}")
         value = float(value)
         if not math.isfinite(value):
-            raise InputError(path, f"must be finite, got {value!r}")
+            raise InputError(path, f"must be finite, got {quoted(value)}")
         _check_bounds(value, path, meta)
         return value
     if tp is int:
         if isinstance(value, bool) or not isinstance(value, int):
-            raise InputError(path, f"must be an integer, got {value!r}")
+            raise InputError(path, f"must be an integer, got {quoted(value)}")
         _check_bounds(value, path, meta)
         return value
     if tp is bool:
         if not isinstance(value, bool):
-            raise InputError(path, f"must be true or false, got {value!r}")
+            raise InputError(path, f"must be true or false, got {quoted(value)}")
         return value
     if tp is str:
         if not isinstance(value, str):
-            raise InputError(path, f"must be a string, got {value!r}")
+            raise InputError(path, f"must be a string, got {quoted(value)}")
         return value
     if origin is list:
         (item_tp,) = get_args(tp)
         if not isinstance(value, (list, tuple)):
-            raise InputError(path, f"must be a list, got {value!r}")
+            raise InputError(path, f"must be a list, got {quoted(value)}")
         length = meta.get("length")
         if length is not None and len(value) != length:
             raise InputError(path, f"must have {length} elements, got {len(value)}")
         return [_convert(item_tp, v, f"{path}[{i}]", meta) for i, v in enumerate(value)]
     if origin is dict:
         if not isinstance(value, dict):
-            raise InputError(path, f"must be a mapping, got {value!r}")
+            raise InputError(path, f"must be a mapping, got {quoted(value)}")
         _, val_tp = get_args(tp)
         return {str(k): _convert(val_tp, v, join(path, str(k)), meta) for k, v in value.items()}
     raise TypeError(f"schema type {tp!r} at {path} is not supported")
@@ -114,7 +114,7 @@ def load(cls, data, path: str = ""):
     if data is None:
         data = {}
     if not isinstance(data, dict):
-        raise InputError(path or "scenario", f"must be a mapping, got {data!r}")
+        raise InputError(path or "scenario", f"must be a mapping, got {quoted(data)}")
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
     for key in data:
         if key not in fields:

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from testbed.errors import InputError
+from testbed.errors import InputError, quoted
 
 
 def finite_number(field: str, value) -> float:
@@ -15,9 +15,9 @@ def finite_number(field: str, value) -> float:
     try:
         x = float(value)
     except (TypeError, ValueError):
-        raise InputError(field, f"must be a number, got {value!r}") from None
+        raise InputError(field, f"must be a number, got {quoted(value)}") from None
     if not math.isfinite(x):
-        raise InputError(field, f"must be finite, got {value!r}")
+        raise InputError(field, f"must be finite, got {quoted(value)}")
     return x
 
 
@@ -26,7 +26,7 @@ def positive_number(field: str, value, allow_inf: bool = False) -> float:
     try:
         x = float(value)
     except (TypeError, ValueError):
-        raise InputError(field, f"must be a number > 0, got {value!r}") from None
+        raise InputError(field, f"must be a number > 0, got {quoted(value)}") from None
     if not x > 0:  # also refuses nan
         raise InputError(field, f"must be > 0, got {x:g}")
     if not allow_inf and math.isinf(x):
@@ -51,7 +51,7 @@ def number_in(field: str, value, low: float, high: float, low_open=False, high_o
 def positive_count(field: str, value) -> int:
     """`value` as an int >= 1 (a bool is not a count)."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise InputError(field, f"must be a positive integer, got {value!r}")
+        raise InputError(field, f"must be a positive integer, got {quoted(value)}")
     return int(value)
 
 
@@ -60,7 +60,7 @@ def vector3(field: str, value) -> np.ndarray:
     try:
         v = np.asarray(value, dtype=float).reshape(-1)
     except (TypeError, ValueError):
-        raise InputError(field, f"must be 3 finite numbers, got {value!r}") from None
+        raise InputError(field, f"must be 3 finite numbers, got {quoted(value)}") from None
     if v.size != 3 or not np.all(np.isfinite(v)):
         raise InputError(field, f"must be 3 finite numbers, got {v.tolist()}")
     return v

@@ -1,0 +1,99 @@
+"""Reading scenario YAML strictly: safe_load semantics (no Python tags are ever executed) plus
+the refusals a hostile or mistaken file needs, each an InputError naming the file and line:
+
+- a file over MAX_FILE_BYTES or not UTF-8 text;
+- a key given twice in one mapping (YAML's "last one wins" would silently drop a value);
+- anchors and aliases (`&a`, `*a`): they let a few lines stand for an exponentially large
+  document, and a scenario has no use for them;
+- nesting deeper than MAX_DEPTH.
+
+YAML 1.1 reads `1e-9` (no dot) as a string; scientists write it, so it is read as a float.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import yaml
+
+from testbed.errors import InputError
+
+MAX_FILE_BYTES = 1_000_000
+MAX_DEPTH = 20
+
+
+class _Loader(yaml.SafeLoader):
+    depth = 0
+
+    def compose_node(self, parent, index):
+        if self.check_event(yaml.AliasEvent):
+            mark = self.peek_event().start_mark
+            raise yaml.constructor.ConstructorError(None, None, "aliases (*name) are not allowed", mark)
+        if self.depth >= MAX_DEPTH:
+            raise yaml.constructor.ConstructorError(None, None, f"nested deeper than {MAX_DEPTH} levels",
+                                                    self.peek_event().start_mark)
+        self.depth += 1
+        try:
+            return super().compose_node(parent, index)
+        finally:
+            self.depth -= 1
+
+    def construct_mapping(self, node, deep=False):
+        seen = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            try:
+                duplicate = key in seen
+            except TypeError:
+                raise yaml.constructor.ConstructorError(None, None, "a mapping key must be a plain value",
+                                                        key_node.start_mark) from None
+            if duplicate:
+                raise yaml.constructor.ConstructorError(None, None, f"key {key!r} is given twice",
+                                                        key_node.start_mark)
+            seen.add(key)
+        return super().construct_mapping(node, deep)
+
+
+_Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _Loader.construct_mapping)
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+                    |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+                    |\.[0-9_]+(?:[eE][-+][0-9]+)?
+                    |[-+]?\.(?:inf|Inf|INF)
+                    |\.(?:nan|NaN|NAN))$""", re.X),
+    list("-+0123456789."),
+)
+
+
+def yaml_load(text: str, where: str):
+    """The YAML document in `text`; InputError(where, ...) with the line of anything refused."""
+    try:
+        return yaml.load(text, Loader=_Loader)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = f" at line {mark.line + 1}" if mark else ""
+        problem = getattr(exc, "problem", None) or "syntax error"
+        raise InputError(where, f"not a valid scenario YAML{line}: {problem}") from None
+    except RecursionError:
+        raise InputError(where, f"nested too deeply (more than {MAX_DEPTH} levels)") from None
+
+
+def read_yaml(path: Path) -> dict:
+    """A scenario file's top-level mapping (see module doc for what is refused)."""
+    where = str(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise InputError(where, f"cannot read the file: {exc.strerror}") from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise InputError(where, f"is {len(raw)} bytes; a scenario file may hold at most {MAX_FILE_BYTES}")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(where, f"is not UTF-8 text (byte {exc.start})") from None
+    data = yaml_load(text, where)
+    if not isinstance(data, dict):
+        raise InputError(where, "a scenario file must be a YAML mapping")
+    return data
