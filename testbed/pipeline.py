@@ -133,6 +133,8 @@ def names(slot: str) -> list[str]:
 
 def load_params(slot: str, config: dict | None, path: str):
     """Validate a slot's `{type: NAME, ...params}` mapping; returns (name, params)."""
+    if config is not None and not isinstance(config, dict):
+        raise InputError(path, f"must be a mapping {{type: NAME, ...}}, got {quoted(config)}")
     config = dict(config or {"type": "none"})
     name = config.pop("type", None)
     if name is None:

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from testbed import schema
-from testbed.errors import InputError
+from testbed.errors import InputError, quoted
 from testbed.registry import Registry
 
 
@@ -41,6 +41,8 @@ def reference(name: str, systems: tuple[str, ...], params: type = _NoParams):
 
 
 def load_params(config: dict, path: str):
+    if not isinstance(config, dict):
+        raise InputError(path, f"must be a mapping {{type: NAME, ...}}, got {quoted(config)}")
     config = dict(config)
     name = config.pop("type", None)
     return name, schema.load(REFERENCES.lookup(name, f"{path}.type").params, config, path)

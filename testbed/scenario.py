@@ -27,12 +27,19 @@ import numpy as np
 
 from testbed import metrics, pipeline, references_registry, schema, systems_registry
 from testbed.errors import InputError, quoted
+from testbed.math.validation import unit_quaternion
 from testbed.plugins import discover, load_plugins
 from testbed.scenario_yaml import read_yaml, yaml_load
 from testbed.schema import param
 from testbed.shipped_files import SCENARIO_DIR
 from testbed.sweep_spec import load_spec
 
+
+
+# Resource caps, decided before a run: about an hour of physics at 1e5-3e5 steps/s, and a trace
+# that fits in memory (about 1.2 kB a sample for the CMG spacecraft: 2.4 GB at the cap).
+MAX_PHYSICS_STEPS = 1_000_000_000
+MAX_TRACE_SAMPLES = 2_000_000
 
 
 @dataclass(kw_only=True)
@@ -50,6 +57,16 @@ class SimConfig:
             self.trace_period_s = self.control_period_s
         steps = schema.whole_multiple(self.control_period_s, self.dt_s, schema.join(path, "control_period_s"), "dt_s")
         schema.whole_multiple(self.trace_period_s, self.control_period_s, schema.join(path, "trace_period_s"), "control_period_s")
+        steps_total = self.duration_s / self.dt_s
+        if steps_total > MAX_PHYSICS_STEPS:
+            raise InputError(schema.join(path, "duration_s"), f"{self.duration_s:g} s at dt_s = {self.dt_s:g} s is "
+                             f"{steps_total:.3g} physics steps; at most {MAX_PHYSICS_STEPS:.0e}: shorten the run "
+                             "or raise dt_s")
+        samples = self.duration_s / self.trace_period_s
+        if samples > MAX_TRACE_SAMPLES:
+            raise InputError(schema.join(path, "trace_period_s"), f"the run would record {samples:.3g} trace samples; "
+                             f"at most {MAX_TRACE_SAMPLES:.0e}: raise trace_period_s to at least "
+                             f"{self.duration_s / MAX_TRACE_SAMPLES:.3g} s")
         schema.whole_multiple(self.duration_s, self.control_period_s, schema.join(path, "duration_s"), "control_period_s")
         self.steps_per_tick = steps
 
@@ -63,9 +80,7 @@ class InitialState:
     def validate(self, path: str) -> None:
         if self.omega_deg_s is not None and self.omega_rad_s is not None:
             raise InputError(schema.join(path, "omega_deg_s"), "give omega_deg_s or omega_rad_s, not both")
-        norm = float(np.linalg.norm(self.quat))
-        if abs(norm - 1.0) > 1e-6:
-            raise InputError(schema.join(path, "quat"), f"must be a unit quaternion, norm is {norm:.6g}")
+        self.quat = list(unit_quaternion(schema.join(path, "quat"), self.quat))
 
     @property
     def omega(self) -> np.ndarray:

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import copy
 import itertools
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -31,6 +32,7 @@ from testbed.errors import InputError
 from testbed.schema import param
 
 DISTRIBUTIONS = ("uniform", "log_uniform", "choice", "integer")
+MAX_CASES = 10_000  # every case is validated before the first runs; campaigns beyond this are split
 
 
 @dataclass(kw_only=True)
@@ -88,6 +90,10 @@ class SweepSpec:
         both = set(self.grid) & set(self.random)
         if both:
             raise InputError(schema.join(path, "random"), f"{sorted(both)[0]} is in grid too")
+        cases = math.prod(len(values) for values in self.grid.values()) * (self.samples or 1)
+        if cases > MAX_CASES:
+            raise InputError(path or "sweep", f"makes {cases:.3g} cases; at most {MAX_CASES}: "
+                                              "fewer grid values or samples")
 
     @property
     def fields(self) -> list[str]:

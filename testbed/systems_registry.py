@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from testbed import schema
-from testbed.errors import InputError
+from testbed.errors import InputError, quoted
 from testbed.registry import Registry
 
 
@@ -39,7 +39,7 @@ def system(name: str, params: type, free_flying: bool = True):
 def load_params(config: dict, path: str):
     """(name, validated params) of a `model:` mapping."""
     if not isinstance(config, dict):
-        raise InputError(path, f"must be a mapping, got {config!r}")
+        raise InputError(path, f"must be a mapping {{system: NAME, ...}}, got {quoted(config)}")
     name = config.get("system")
     return name, schema.load(SYSTEMS.lookup(name, f"{path}.system").params, config, path)
 

@@ -55,7 +55,7 @@ class TrackingLaw:
 
     def _errors(self, t, q, w):
         # Integrated or estimated attitudes drift off |q| = 1 a little: normalise, reject only nonsense.
-        q = unit_quaternion("state.q", q, tol=1e-3)
+        q = unit_quaternion("state.q", q)
         w = vector3("state.w_rad_s", w)
         q_p, w_p, dw_p = self.program.state(t)
         dq = quat_mul(quat_conj(q_p), q)

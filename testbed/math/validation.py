@@ -66,26 +66,32 @@ def vector3(field: str, value) -> np.ndarray:
     return v
 
 
-def check_unit_vector(vector, path: str, tol: float = 1e-9) -> np.ndarray:
-    """A unit 3-vector; a zero or non-unit vector is refused (never silently normalised)."""
-    v = vector3(path, vector)
+# The one rule for every unit vector and quaternion a user gives (axes, attitudes): its length
+# must be within UNIT_TOLERANCE of 1 (four figures, as typed by hand: [0.577, 0.577, 0.577]
+# passes) and it is divided by its length; zero, or farther from 1, is refused.
+UNIT_TOLERANCE = 1e-3
+
+
+def _to_unit(field: str, v: np.ndarray, what: str, tol: float) -> np.ndarray:
     norm = float(np.linalg.norm(v))
     if norm == 0.0:
-        raise InputError(path, "must not be the zero vector")
+        raise InputError(field, f"must be a unit {what}, got the zero {what}")
     if abs(norm - 1.0) > tol:
-        raise InputError(path, f"must be a unit vector, |v| = {norm:.9g}")
-    return v
+        raise InputError(field, f"must be a unit {what} (length within {tol:g} of 1), its length is {norm:.9g}")
+    return v / norm
 
 
-def unit_quaternion(field: str, q, tol: float = 1e-6) -> np.ndarray:
-    """q as a float (4,) array normalised to 1; |q| farther than `tol` from 1 is refused."""
+def check_unit_vector(vector, path: str, tol: float = UNIT_TOLERANCE) -> np.ndarray:
+    """A 3-vector of length 1 +- tol, returned divided by its length (UNIT_TOLERANCE rule)."""
+    return _to_unit(path, vector3(path, vector), "vector", tol)
+
+
+def unit_quaternion(field: str, q, tol: float = UNIT_TOLERANCE) -> np.ndarray:
+    """A quaternion (w, x, y, z) of length 1 +- tol, returned divided by its length."""
     q = np.asarray(q, dtype=float)
     if q.shape != (4,) or not np.all(np.isfinite(q)):
-        raise InputError(field, f"must be 4 finite numbers (w, x, y, z), got {q.tolist()}")
-    norm = np.linalg.norm(q)
-    if abs(norm - 1.0) > tol:
-        raise InputError(field, f"must be a unit quaternion, |q| = {norm:.9g}")
-    return q / norm
+        raise InputError(field, f"must be 4 finite numbers (w, x, y, z), got {quoted(q.tolist())}")
+    return _to_unit(field, q, "quaternion", tol)
 
 
 def principal_moments(field: str, inertia) -> np.ndarray:

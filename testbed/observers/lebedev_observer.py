@@ -67,7 +67,7 @@ def check_observable(inertia, spin_rate, sensor_axis):
     InputError naming the one that vanishes; returns None when all are non-zero.
     """
     inertia = principal_moments("body.inertia", inertia)
-    p = check_unit_vector(sensor_axis, "sensor.axis", tol=1e-6)
+    p = check_unit_vector(sensor_axis, "sensor.axis")
     a, _ = lebedev_matrices(inertia, spin_rate)
     alpha, beta, gamma = p
     ix, iy, iz = inertia
@@ -210,7 +210,7 @@ class LebedevObserver:
     def __init__(self, inertia, spin_rate, sensor_axis, poles, max_substep=0.05, design_momentum=None):
         self.inertia = principal_moments("body.inertia", inertia)
         self.spin_rate = float(spin_rate)
-        self.C = check_unit_vector(sensor_axis, "sensor.axis", tol=1e-6)
+        self.C = check_unit_vector(sensor_axis, "sensor.axis")
         self.l = observer_gain(self.inertia, self.spin_rate, self.C, poles)
         # Closed-loop gain: the paper's l, or l for A + I^-1 [H x] when the actuators hold H.
         self.l_closed = self.l if design_momentum is None else ackermann_gain(

@@ -27,7 +27,7 @@ class RateGyroParams:
     seed: int = param(0, ge=0, doc="noise seed: the same seed gives the same samples bit for bit")
 
     def validate(self, path: str) -> None:
-        check_unit_vector(self.axis, join(path, "axis"))
+        self.axis = list(check_unit_vector(self.axis, join(path, "axis")))
 
 
 @stage("sensor", "rate_gyro", RateGyroParams)

@@ -48,7 +48,7 @@ class SlewParams:
     damping_ratio: float = param(0.9, ge=0, doc="tracking-error damping ratio")
 
     def validate(self, path: str) -> None:
-        check_unit_vector(self.axis, join(path, "axis"))
+        self.axis = list(check_unit_vector(self.axis, join(path, "axis")))
 
 
 def build_program(params: SlewParams, q0) -> ProgramTrajectory:

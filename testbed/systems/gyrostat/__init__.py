@@ -36,7 +36,7 @@ class GyrostatParams:
 
     def validate(self, path: str) -> None:
         check_principal_inertia(self.inertia_kg_m2, join(path, "inertia_kg_m2"))
-        check_unit_vector(self.rotor_axis, join(path, "rotor_axis"))
+        self.rotor_axis = list(check_unit_vector(self.rotor_axis, join(path, "rotor_axis")))
         js, jt = self.rotor_spin_inertia_kg_m2, self.rotor_transverse_inertia_kg_m2
         if js > 2 * jt + 1e-12:
             raise InputError(join(path, "rotor_spin_inertia_kg_m2"),
