@@ -6,7 +6,7 @@ import mujoco
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.math.validation import check_principal_inertia, positive_number
+from testbed.math.validation import MASS_RANGE_KG, check_in_range, check_principal_inertia, positive_number
 
 BUS_BODY = "bus"
 BUS_JOINT = "bus"
@@ -17,7 +17,7 @@ def set_bus_mass(spec, inertia, mass) -> None:
     """Write the bus's principal inertia [kg m^2] and mass [kg] into `spec` (explicit inertial)."""
     check_principal_inertia(inertia, "model.inertia_kg_m2")
     bus = spec.body(BUS_BODY)
-    bus.mass = positive_number("model.mass_kg", mass)
+    bus.mass = check_in_range("model.mass_kg", positive_number("model.mass_kg", mass), MASS_RANGE_KG, "kg")
     bus.inertia = list(map(float, inertia))
     bus.explicitinertial = True
 

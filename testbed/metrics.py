@@ -49,8 +49,19 @@ def validate_checks(scenario) -> None:
             raise InputError(f"checks.{name}", f"no such metric for this scenario (available: {', '.join(names)})")
 
 
-def compute_all(run) -> dict[str, float]:
-    return {name: float(METRICS[name].compute(run)) for name in available(run.scenario)}
+def compute_all(run) -> tuple[dict[str, float], dict[str, str]]:
+    """(values, why): every metric of the run; one that cannot be computed (e.g. from a run cut
+    short) is NaN, with the reason in `why`, and fails any check on it."""
+    values, why = {}, {}
+    for name in available(run.scenario):
+        try:
+            with np.errstate(all="ignore"):
+                values[name] = float(METRICS[name].compute(run))
+        except Exception as exc:  # noqa: BLE001  (a metric of a partial or odd trace)
+            values[name], why[name] = float("nan"), f"{type(exc).__name__}: {exc}"
+        if not np.isfinite(values[name]) and name not in why:
+            why[name] = "the recorded signals give no finite value"
+    return values, why
 
 
 def sample_norms(run, key: str) -> np.ndarray:
@@ -68,9 +79,16 @@ def final_norm_metric(name: str, key: str, doc: str, applies: Callable = lambda 
     metric(name, applies)(final_norm)
 
 
-def evaluate_checks(scenario, values: dict[str, float]) -> list[dict]:
-    return [{"name": name, "value": values[name], "limit": limit.text, "passed": limit.passed(values[name])}
-            for name, limit in scenario.checks.items()]
+def evaluate_checks(scenario, values: dict[str, float], why: dict[str, str] | None = None) -> list[dict]:
+    """One row per check; a check on a metric that is not finite fails with the reason."""
+    rows = []
+    for name, limit in scenario.checks.items():
+        value = values.get(name, float("nan"))
+        row = {"name": name, "value": value, "limit": limit.text, "passed": limit.passed(value)}
+        if not np.isfinite(value):
+            row["reason"] = (why or {}).get(name, "the run recorded too little to compute it")
+        rows.append(row)
+    return rows
 
 
 # --- metrics every free-flying system has ---------------------------------------------------

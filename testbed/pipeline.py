@@ -54,6 +54,7 @@ class StageContext:
     inertia: np.ndarray         # spacecraft locked inertia about its CoM, body axes [kg m^2]
     description: Any = None     # the plant's static design data (e.g. an actuator cluster's geometry)
     system: str = ""            # model.system
+    free_flying: bool = True    # a free body with three rotational degrees of freedom
     model: Any = None           # the system's validated parameters
     initial: Any = None         # the scenario's initial state (attitude, rate)
     integrator: str = "RK4"
@@ -108,6 +109,13 @@ class Allocator(Protocol):
     def __init__(self, params, ctx: StageContext): ...
 
     def allocate(self, t: float, demand: Signals, estimate: Signals, actuators: Signals) -> Signals: ...
+
+
+def require_free_body(ctx: StageContext, slot: str, name: str) -> None:
+    """Refuse a stage that needs a free three-axis body on a system that is not one."""
+    if not ctx.free_flying:
+        raise InputError(f"pipeline.{slot}.type", f"{name} needs a free-flying system (a body with three "
+                                                  f"rotational degrees of freedom), not model.system {ctx.system}")
 
 
 def stage(slot: str, name: str, params_cls: type | None = None):

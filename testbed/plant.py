@@ -13,6 +13,12 @@ import mujoco
 import numpy as np
 
 
+# MuJoCo writes its warnings to MUJOCO_LOG.TXT in the working directory unless a callback takes
+# them: keep the last one for the run's error message instead.
+_mujoco_warnings: list[str] = []
+mujoco.set_mju_user_warning(lambda message: _mujoco_warnings.append(" ".join(str(message).split())))
+
+
 class SimulationDiverged(RuntimeError):
     """MuJoCo hit a bad acceleration or a non-finite state; carries the time it happened."""
 
@@ -78,8 +84,10 @@ class Plant:
         mujoco.mj_step(self.model, self.data, nstep=nstep)
         for kind, stat in self._bad:
             if stat.number:
+                said = f" ({_mujoco_warnings[-1]})" if _mujoco_warnings else ""
+                _mujoco_warnings.clear()
                 raise SimulationDiverged(t0, f"MuJoCo {kind.name}: NaN, Inf or huge value "
-                                             f"within {nstep} steps after this time")
+                                             f"within {nstep} steps after this time{said}")
         if not np.isfinite(self.data.qvel).all():
             raise SimulationDiverged(t0, "non-finite velocity")
 

@@ -10,6 +10,8 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from testbed import metrics, references_registry, systems_registry, trace
 from testbed.errors import InputError
 from testbed.pipeline import SLOTS, Pipeline, StageContext, StageFailed, params_dict, stage_info
@@ -90,6 +92,7 @@ def stage_context(scenario, inertia, description=None) -> StageContext:
     sim = scenario.sim
     return StageContext(dt=sim.dt_s, control_period=sim.control_period_s, inertia=inertia,
                         description=description, system=scenario.system, model=scenario.model,
+                        free_flying=systems_registry.is_free_flying(scenario),
                         initial=scenario.initial, integrator=sim.integrator,
                         end_time=round(sim.duration_s / sim.control_period_s) * sim.control_period_s,
                         stages={slot: stage_info(slot, *scenario.stages[slot]) for slot in SLOTS})
@@ -100,6 +103,7 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     `keep_data` keeps the trace and what the metrics saw in the result; `progress(fraction)`
     is called about 200 times."""
     wall0 = time.perf_counter()
+    out = trace.output_path(out) if out is not None else None  # refused before the run, not after
     plant, pipeline, reference = prepare(scenario)
     sim = scenario.sim
     n_ticks = round(sim.duration_s / sim.control_period_s)
@@ -108,7 +112,10 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     momentum_scale = plant.momentum_scale()
     status, error = "ok", None
     try:
-        _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress)
+        # a stage whose numbers overflow or turn invalid fails at that tick, named (StageFailed),
+        # instead of printing numpy warnings and handing NaN on
+        with np.errstate(over="raise", invalid="raise", divide="raise"):
+            _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress)
     except SimulationDiverged as exc:
         status, error = "diverged", str(exc)
     except StageFailed as exc:
@@ -123,9 +130,8 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
         omega_ref = reference(recorder.time, recorder)
         recorder.add_series("reference/omega", omega_ref)
         recorder.add_series("reference/omega_error", recorder["truth/omega"] - omega_ref)
-    values = metrics.compute_all(data) if recorder.count > 1 else {}
-    checks = metrics.evaluate_checks(scenario, values) if values else [
-        {"name": n, "value": float("nan"), "limit": lim.text, "passed": False} for n, lim in scenario.checks.items()]
+    values, why = metrics.compute_all(data) if recorder.count > 1 else ({}, {})
+    checks = metrics.evaluate_checks(scenario, values, why)
     result = RunResult(scenario.name, recorder.time[-1] if recorder.count else 0.0, 0.0, status, error,
                        values, checks, str(out) if out else None, data if keep_data else None,
                        Trace.from_recorder(recorder) if keep_data else None)

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import mujoco
 
+from testbed.errors import InputError
+
 MODELS_DIR = Path(__file__).resolve().parent / "models"
 SCENARIO_DIR = Path(__file__).resolve().parent / "scenarios"
 
@@ -30,3 +32,13 @@ def load_spec(file_name: str, timestep: float, integrator: str) -> mujoco.MjSpec
     spec.option.timestep = timestep
     spec.option.integrator = INTEGRATORS[integrator]
     return spec
+
+
+def compile_model(spec: mujoco.MjSpec) -> mujoco.MjModel:
+    """spec.compile(); a model MuJoCo refuses (e.g. a mass or inertia below its 1e-15 floor) is
+    bad input naming the element, not a traceback."""
+    try:
+        return spec.compile()
+    except ValueError as exc:
+        lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+        raise InputError("model", f"MuJoCo cannot build it: {'; '.join(lines[:2])}") from None

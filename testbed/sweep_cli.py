@@ -50,18 +50,29 @@ def load_cases(name: str, overrides: list[str]):
 
 
 def run(args) -> int:
+    from testbed.runner import prepare
+    from testbed.scenario import parse
     from testbed.sweep_runner import run_cases, write_csv
+    from testbed.trace import file_stem, output_path
 
     workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
     if workers < 1:
         raise InputError("--workers", f"must be >= 1, got {workers}")
     name, fields, cases = load_cases(args.scenario, args.set)
-    out = Path(args.out) if args.out else Path("runs") / f"{name}_sweep"
+    for case in cases:  # every case must fit its system before the first one runs
+        try:
+            prepare(parse(case.data, case.source))
+        except InputError as exc:
+            raise InputError(f"sweep case {case.index}", f"({case.label}) {exc.field}: {exc.reason}") from None
+    out = Path(args.out) if args.out else Path("runs") / f"{file_stem(name)}_sweep"
+    if out.exists() and not out.is_dir():
+        raise InputError("--out", f"{out} is a file; a sweep writes a folder (its CSV and traces)")
+    output_path(out / f"{file_stem(name)}.csv")
     with progress_bar(f"sweep {name}", len(cases), "cases") as bar:
         bar.disable = bar.disable or args.json
         rows = run_cases(cases, workers, out if args.rrd else None,
                          lambda done, total, failed: advance_to(bar, done, failed=failed))
-    csv_path = write_csv(out / f"{name}.csv", rows, fields)
+    csv_path = write_csv(out / f"{file_stem(name)}.csv", rows, fields)
     if args.json:
         print(json.dumps(rows))
     else:

@@ -9,8 +9,11 @@ body-frame momentum the plant's scene names (e.g. an actuator cluster's) and `ru
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import re
+import tempfile
 import uuid
 from pathlib import Path
 
@@ -18,6 +21,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from testbed.errors import InputError
 from testbed.recorder import Recorder, Trace
 
 APP_ID = "gyrodyne-testbed"
@@ -83,18 +87,71 @@ def _blueprint(recorder: Recorder, scene: dict | None) -> rrb.Blueprint:
 
 
 def write_rrd(path: Path, recorder: Recorder, result: dict, scene: dict | None = None) -> Path:
-    """Write `recorder`'s signals, the optional 3D `scene` and `result` to `path`.
-
-    The file is written beside `path` first and renamed at the end, so an interrupted write
-    never leaves a complete-looking file. `scene` may hold `bus_half_size` (3,) [m] and a
-    `momentum_scale` [m per N m s] for the arrows, `body_momenta` {signal key: entity name} of
-    body-frame momenta to draw on the bus, and `units` {signal name: unit} beside UNITS.
+    """Write `recorder`'s signals, the optional 3D `scene` and `result` to `path` (atomically,
+    see `recording_to`; `path` should come from `output_path`). `scene` may hold
+    `bus_half_size` (3,) [m] and a `momentum_scale` [m per N m s] for the arrows,
+    `body_momenta` {signal key: entity name} of body-frame momenta to draw on the bus, and
+    `units` {signal name: unit} beside UNITS.
     """
+    with recording_to(path) as rec:
+        _write_streams(rec, recorder, result, scene)
+    return Path(path)
+
+
+@contextlib.contextmanager
+def recording_to(path, application: str = APP_ID):
+    """A Rerun recording saved to a unique temporary file beside `path` and renamed onto it when
+    the block ends (atomic): an interrupted write leaves nothing behind (the temporary file is
+    removed on any exception, Ctrl-C and SIGTERM included), and two writers of one path each
+    leave a whole file."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    partial = path.with_name(path.name + ".partial")
-    rec = rr.RecordingStream(APP_ID, recording_id=str(uuid.uuid4()))
-    rec.save(str(partial))
+    handle, partial = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".partial")
+    os.close(handle)
+    rec = rr.RecordingStream(application, recording_id=str(uuid.uuid4()))
+    try:
+        rec.save(partial)  # before logging, so nothing is buffered for a viewer
+        yield rec
+        rec.flush()
+        rec.disconnect()
+        os.replace(partial, path)
+    except BaseException:
+        rec.disconnect()
+        Path(partial).unlink(missing_ok=True)
+        raise
+
+
+def file_stem(name: str) -> str:
+    """A scenario name made safe as a file name: no separators, no leading dots, no '..'."""
+    stem = re.sub(r"[^A-Za-z0-9._-]+", "_", name).lstrip(".")
+    return stem.replace("..", "_") or "run"
+
+
+def output_path(out, field: str = "--out") -> Path:
+    """Where a trace may be written, checked before any run: not a directory or a device, its
+    folder creatable and writable. A symlink is written through (its target is replaced)."""
+    path = Path(out).expanduser()
+    if str(out).endswith(os.sep) or path.is_dir():
+        raise InputError(field, f"{path} is a directory; give a file name such as {path / 'run.rrd'}")
+    if path.exists() and not path.is_file():
+        raise InputError(field, f"{path} is not a regular file")
+    path = path.resolve()
+    for ancestor in [path.parent, *path.parent.parents]:
+        if ancestor.exists():
+            if not ancestor.is_dir():
+                raise InputError(field, f"{ancestor} is a file, so {path} cannot be created")
+            break
+    try:  # the one sure test: create a file where the trace will go
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle, probe = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".probe")
+        os.close(handle)
+        os.unlink(probe)
+    except OSError as exc:
+        raise InputError(field, f"cannot write in {path.parent}: {exc.strerror}") from None
+    return path
+
+
+def _write_streams(rec, recorder: Recorder, result: dict, scene: dict | None) -> None:
     rec.send_blueprint(_blueprint(recorder, scene))
     times = rr.TimeColumn(TIMELINE, duration=recorder.time)
     units = UNITS | (scene or {}).get("units", {})
@@ -110,10 +167,6 @@ def write_rrd(path: Path, recorder: Recorder, result: dict, scene: dict | None =
         _write_scene(rec, recorder, times, scene)
     rec.log(RESULT_ENTITY, rr.TextDocument(json.dumps(result, indent=1), media_type="text/plain"), static=True)
     rec.log("run/summary", rr.TextDocument(_summary_markdown(result), media_type="text/markdown"), static=True)
-    rec.flush()
-    del rec
-    os.replace(partial, path)
-    return path
 
 
 def _write_scene(rec, recorder: Recorder, times, scene: dict) -> None:

@@ -102,11 +102,27 @@ def principal_moments(field: str, inertia) -> np.ndarray:
     return values
 
 
+# What a body's mass properties may be: from a gyro rotor's to far beyond a space station's,
+# inside the range where MuJoCo's compiler and the squares in the dynamics stay exact.
+INERTIA_RANGE_KG_M2 = (1e-9, 1e12)
+MASS_RANGE_KG = (1e-6, 1e12)
+
+
+def check_in_range(field: str, value: float, bounds: tuple[float, float], unit: str) -> float:
+    low, high = bounds
+    if not low <= value <= high:
+        raise InputError(field, f"must lie in [{low:g}, {high:g}] {unit}, got {value:g}")
+    return value
+
+
 def check_principal_inertia(inertia, path: str) -> None:
-    """Principal inertias must be positive and obey the triangle inequality I_i <= I_j + I_k."""
+    """Principal inertias must lie in INERTIA_RANGE_KG_M2 and obey the triangle inequality
+    I_i <= I_j + I_k."""
     values = np.asarray(inertia, float)
     if np.any(values <= 0):
         raise InputError(path, f"principal inertias must be > 0, got {list(values)}")
+    for value in values:
+        check_in_range(path, float(value), INERTIA_RANGE_KG_M2, "kg m^2")
     total = values.sum()
     for i, value in enumerate(values):
         if value > total - value + 1e-12 * total:

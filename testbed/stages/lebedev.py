@@ -28,7 +28,7 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.observers.lebedev_observer import LebedevObserver, check_gains, check_observer_poles, lebedev_torque
-from testbed.pipeline import stage
+from testbed.pipeline import require_free_body, stage
 from testbed.schema import join, param
 
 # Relative size of products of inertia the principal-axis model (eq. 1.2) may ignore.
@@ -99,6 +99,7 @@ class LebedevLaw:
         return {"spin_rate": params.omega_ref, "spin_rate_field": f"pipeline.law.{params.rate_key}"}
 
     def __init__(self, params: LebedevLawParams, ctx):
+        require_free_body(ctx, "law", "lebedev")
         self.inertia = principal_axes_moments(ctx.inertia)
         self.target = np.array([0.0, 0.0, params.omega_ref])
         with scenario_fields({"control.gains": "pipeline.law.gains_per_s", "body.inertia": "model.inertia_kg_m2"}):
@@ -136,6 +137,7 @@ class LebedevEstimator:
     allocator from compensating w x H with the start-up transient (peaks of ~70 deg/s)."""
 
     def __init__(self, params: LebedevObserverParams, ctx):
+        require_free_body(ctx, "estimator", "lebedev")
         sensor, law, allocator = ctx.stages["sensor"], ctx.stages["law"], ctx.stages["allocator"]
         if "sensing_axis" not in sensor.design:
             raise InputError("pipeline.sensor.type", f"the lebedev estimator needs the single-axis rate_gyro "

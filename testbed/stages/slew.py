@@ -23,7 +23,7 @@ from testbed.errors import InputError
 from testbed.guidance.program_trajectory import ProgramTrajectory
 from testbed.guidance.tracking_law import TrackingLaw
 from testbed.math.validation import check_unit_vector
-from testbed.pipeline import stage
+from testbed.pipeline import require_free_body, stage
 from testbed.math.quaternion import quat_from_axis_angle, quat_mul, rotation_vector
 from testbed.schema import join, param
 
@@ -68,6 +68,7 @@ def build_program(params: SlewParams, q0) -> ProgramTrajectory:
 @stage("law", "slew", SlewParams)
 class Slew:
     def __init__(self, params: SlewParams, ctx):
+        require_free_body(ctx, "law", "slew")
         if not {"quat", "omega"} <= ctx.stages["estimator"].outputs:
             raise InputError("pipeline.estimator.type", "the slew law needs an estimator that gives quat "
                              "and omega (e.g. sensor ideal_attitude with estimator attitude)")

@@ -18,11 +18,13 @@ import numpy as np
 
 from testbed.commands import command
 from testbed.errors import InputError
+from testbed.trace import output_path
 from testbed.systems.cmg_rhombus.cluster import ClusterGeometry
 from testbed.systems.cmg_rhombus.model import CmgRhombusParams, build
 from testbed.systems.cmg_rhombus.momentum_envelope import EXTERNAL, singular_momenta, write_envelope_rrd
 
 EXIT_OK = 0
+MAX_POINTS = 200_000  # directions per surface: 8 surfaces of this many points stay well under a GB
 
 
 @command("envelope")
@@ -52,9 +54,9 @@ def run(args) -> int:
         raise InputError("--alpha-deg", f"must lie in (0, 90) deg, got {alpha:g}")
     if not math.isfinite(args.h) or args.h <= 0:
         raise InputError("--h", f"must be a finite momentum > 0 N m s, got {args.h:g}")
-    if args.points < 1:
-        raise InputError("--points", f"must be >= 1, got {args.points}")
-    out = Path(args.out) if args.out else Path("runs") / f"envelope_alpha{alpha:g}.rrd"
+    if not 1 <= args.points <= MAX_POINTS:
+        raise InputError("--points", f"must be in [1, {MAX_POINTS}], got {args.points}")
+    out = output_path(Path(args.out) if args.out else Path("runs") / f"envelope_alpha{alpha:g}.rrd")
     cluster = cluster_from_model(alpha, args.h)
     write_envelope_rrd(out, math.radians(alpha), cluster.h, args.points, axes=cluster.gimbal_axes)
     ext = axis_extents(cluster.gimbal_axes, cluster.h)

@@ -5,10 +5,12 @@ from __future__ import annotations
 import numpy as np
 
 from testbed.metrics import metric
+from testbed.pipeline import output_of
 
 
 def _servo_commanded(scenario) -> bool:
-    return scenario.system == "cmg_rhombus" and scenario.stages["allocator"][0] != "none"
+    """The allocator commands gimbal rates (not only ideal torques, not nothing)."""
+    return scenario.system == "cmg_rhombus" and output_of("allocator", scenario.stages["allocator"][0]) == "gimbal_rates"
 
 
 @metric("gimbal_rate_error_rel", applies=_servo_commanded)

@@ -14,7 +14,7 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.free_bus import set_bus_mass
 from testbed.math.validation import check_principal_inertia
-from testbed.shipped_files import load_spec
+from testbed.shipped_files import compile_model, load_spec
 from testbed.schema import join, param
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTOR_SPEED_NUMERIC, ROTORS, rhombus_axes
 
@@ -114,7 +114,7 @@ def build(params: CmgRhombusParams, dt: float, integrator: str = "RK4") -> mujoc
 
     spec.numeric(ROTOR_SPEED_NUMERIC).data = [omega_rotor]
     _write_initial_key(spec, np.radians(params.gimbal_angles_deg), omega_rotor)
-    return spec.compile()
+    return compile_model(spec)
 
 
 def servo_gains(params: CmgRhombusParams, dt: float, gimbal_axis_inertia: float):

@@ -31,6 +31,7 @@ import numpy as np
 from testbed.systems.cmg_rhombus.cluster import rhombus_axes
 from testbed.errors import InputError
 from testbed.math.validation import finite_number, positive_count, positive_number
+from testbed.trace import recording_to
 
 # Directions u closer than this (|g_i × u|) to a gimbal axis are skipped (see module doc).
 _AXIS_EPS = 1e-6
@@ -114,28 +115,23 @@ def write_envelope_rrd(path, alpha, h, n, axes=None) -> Path:
     g = rhombus_gimbal_axes(alpha) if axes is None else _axes(axes)
     h = positive_number("cmg.h_Nms", h)
     surfaces = singular_surface_points(alpha, n, h, g)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    rec = rr.RecordingStream("testbed", recording_id="momentum-envelope")
-    rec.save(str(path))  # before logging, so nothing is buffered for a viewer
-    radius = 0.01 * h
-    for pattern, points in surfaces.items():
-        if pattern == EXTERNAL:
-            entity, color = "envelope/external", (70, 130, 230, 255)
-        else:
-            name = "".join("p" if s > 0 else "m" for s in pattern)
-            negatives = sum(1 for s in pattern if s < 0)
-            entity = f"envelope/internal/{name}"
-            color = (230, 120, 40, 255) if negatives % 2 else (200, 40, 160, 255)
-        rec.log(entity, rr.Points3D(points, colors=[color], radii=radius), static=True)
-    rec.log(
-        "envelope/gimbal_axes",
-        rr.Arrows3D(vectors=2.0 * h * g, labels=[f"g{i + 1}" for i in range(len(g))]),
-        static=True,
-    )
-    rec.flush()
-    rec.disconnect()
-    return path
+    with recording_to(path, "testbed-envelope") as rec:
+        radius = 0.01 * h
+        for pattern, points in surfaces.items():
+            if pattern == EXTERNAL:
+                entity, color = "envelope/external", (70, 130, 230, 255)
+            else:
+                name = "".join("p" if s > 0 else "m" for s in pattern)
+                negatives = sum(1 for s in pattern if s < 0)
+                entity = f"envelope/internal/{name}"
+                color = (230, 120, 40, 255) if negatives % 2 else (200, 40, 160, 255)
+            rec.log(entity, rr.Points3D(points, colors=[color], radii=radius), static=True)
+        rec.log(
+            "envelope/gimbal_axes",
+            rr.Arrows3D(vectors=2.0 * h * g, labels=[f"g{i + 1}" for i in range(len(g))]),
+            static=True,
+        )
+    return Path(path)
 
 
 def _axes(axes) -> np.ndarray:

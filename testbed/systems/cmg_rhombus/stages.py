@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from testbed.errors import InputError
 from testbed.pipeline import stage
 from testbed.schema import param
 from testbed.stages.open_loop import SinusoidProfile
@@ -37,6 +38,10 @@ class GimbalRateProfile:
     needs_actuators = False
 
     def __init__(self, params, ctx):
+        gimbals = len(getattr(ctx.description, "gimbal_axes", ()))
+        if len(params.offset) != gimbals:
+            raise InputError("pipeline.allocator.offset", f"gimbal_rate_profile gives {len(params.offset)} gimbal "
+                                                          f"rates; model.system {ctx.system} has {gimbals} gimbals")
         self.profile = params
 
     def allocate(self, t, demand, estimate, actuators):

@@ -17,7 +17,7 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.free_bus import FreeBus
 from testbed.math.validation import check_principal_inertia, check_unit_vector
-from testbed.shipped_files import load_spec
+from testbed.shipped_files import compile_model, load_spec
 from testbed.plant import Plant
 from testbed.references_registry import reference
 from testbed.schema import join, param
@@ -58,7 +58,7 @@ def build(params: GyrostatParams, dt: float, integrator: str) -> mujoco.MjModel:
                      params.rotor_transverse_inertia_kg_m2]
     rotor.iquat = _quat_x_to(np.asarray(params.rotor_axis, float))
     spec.geom("rotor").fromto = np.concatenate([-0.03 * np.asarray(params.rotor_axis), 0.03 * np.asarray(params.rotor_axis)])
-    return spec.compile()
+    return compile_model(spec)
 
 
 def _quat_x_to(axis: np.ndarray) -> np.ndarray:

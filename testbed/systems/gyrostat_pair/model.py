@@ -23,7 +23,7 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.math.validation import check_principal_inertia
-from testbed.shipped_files import load_spec
+from testbed.shipped_files import compile_model, load_spec
 from testbed.schema import join, param
 
 XML_FILE = "gyrostat_pair.xml"
@@ -83,7 +83,7 @@ def build(params: GyrostatPairParams, dt: float = 1e-3, integrator: str = "RK4")
             rotor.inertia = [J if k == i else Jt for k in range(3)]  # axial moment on axis i
     for i in range(3):
         spec.actuator(f"leader_rotor{i + 1}_speed").set_to_velocity(kv=J * bandwidth)
-    return spec.compile()
+    return compile_model(spec)
 
 
 def body_acceleration(inertia, omega, moment, moment_rate) -> np.ndarray:

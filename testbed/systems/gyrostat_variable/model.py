@@ -25,7 +25,7 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.free_bus import BUS_BODY
 from testbed.math.euler_angles import wrap_angle
-from testbed.shipped_files import load_spec
+from testbed.shipped_files import compile_model, load_spec
 from testbed.schema import join, param
 
 XML_FILE = "gyrostat_variable.xml"
@@ -140,7 +140,7 @@ def build(params: VariableGyrostatParams, dt: float = 1e-3, integrator: str = "R
         spec.actuator(f"{name}_angle").set_to_intvelocity(kp=inertia * wn**2, kv=0.0)
         spec.actuator(f"{name}_angle").actrange = [-1e9, 1e9]
         spec.actuator(f"{name}_rate").set_to_velocity(kv=2 * zeta * inertia * wn)
-    return spec.compile()
+    return compile_model(spec)
 
 
 def prescribed(t: float, params: VariableGyrostatParams) -> dict[str, float]:

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from testbed.shipped_files import load_spec
+from testbed.shipped_files import compile_model, load_spec
 from testbed.schema import param
 
 JOINT, BODY, CONTROL, DISTURBANCE = "angle", "rig", "control", "disturbance"
@@ -64,7 +64,7 @@ def build(params: PlanarParams, dt: float, integrator: str) -> mujoco.MjModel:
     J = params.inertia_kg_m2
     body.inertia = [J / 2, J / 2, J]  # thin disc about the hinge axis z
     body.explicitinertial = True
-    return spec.compile()
+    return compile_model(spec)
 
 
 class PlanarRig:

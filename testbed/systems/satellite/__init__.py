@@ -14,7 +14,7 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.free_bus import FreeBus, set_bus_mass
 from testbed.math.validation import check_principal_inertia
-from testbed.shipped_files import load_spec
+from testbed.shipped_files import compile_model, load_spec
 from testbed.plant import Plant
 from testbed.references_registry import reference
 from testbed.schema import join, param
@@ -37,7 +37,7 @@ def build(params: SatelliteParams, dt: float, integrator: str = "RK4") -> mujoco
     """Compile models/satellite.xml with the bus inertia and mass applied through MjSpec."""
     spec = load_spec("satellite.xml", dt, integrator)
     set_bus_mass(spec, params.inertia_kg_m2, params.mass_kg)
-    return spec.compile()
+    return compile_model(spec)
 
 
 @system("satellite", SatelliteParams)
