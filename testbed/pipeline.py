@@ -170,6 +170,16 @@ def stage_info(slot: str, name: str, params) -> StageInfo:
     return StageInfo(name, design)
 
 
+def stage_infos(configs: dict) -> dict[str, StageInfo]:
+    """slot -> StageInfo of a scenario's four stages; an estimator that passes the measurement
+    on (design outputs "measurement") outputs what its sensor does."""
+    infos = {slot: stage_info(slot, *configs[slot]) for slot in SLOTS}
+    estimator = infos["estimator"]
+    if estimator.design.get("outputs") == "measurement":
+        infos["estimator"] = StageInfo(estimator.type, estimator.design | {"outputs": infos["sensor"].outputs})
+    return infos
+
+
 def build(slot: str, name: str, params, ctx: StageContext):
     return stage_class(slot, name)(params, ctx)
 

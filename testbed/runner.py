@@ -14,7 +14,7 @@ import numpy as np
 
 from testbed import metrics, references_registry, systems_registry, trace
 from testbed.errors import InputError
-from testbed.pipeline import SLOTS, Pipeline, StageContext, StageFailed, params_dict, stage_info
+from testbed.pipeline import Pipeline, StageContext, StageFailed, params_dict, stage_infos
 from testbed.plant import SimulationDiverged
 from testbed.recorder import Recorder, Trace
 
@@ -95,7 +95,7 @@ def stage_context(scenario, inertia, description=None) -> StageContext:
                         free_flying=systems_registry.is_free_flying(scenario),
                         initial=scenario.initial, integrator=sim.integrator,
                         end_time=round(sim.duration_s / sim.control_period_s) * sim.control_period_s,
-                        stages={slot: stage_info(slot, *scenario.stages[slot]) for slot in SLOTS})
+                        stages=stage_infos(scenario.stages))
 
 
 def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = False) -> RunResult:

@@ -73,6 +73,8 @@ class LeaderRates:
 
 @stage("estimator", "pass_through")
 class PassThrough:
+    outputs = "measurement"  # whatever the sensor measures (testbed.pipeline.stage_infos)
+
     def __init__(self, params, ctx):
         pass
 
@@ -127,7 +129,11 @@ class SynchronisationParams:
 class Synchronisation:
     def __init__(self, params: SynchronisationParams, ctx):
         _require_pair(ctx, "law", "synchronisation")
-        if not {"w12", "follower_omega", "follower_moment"} <= ctx.stages["sensor"].outputs:
+        needed = {"w12", "follower_omega", "follower_moment"}
+        if not needed <= ctx.stages["estimator"].outputs:
+            raise InputError("pipeline.estimator.type", "synchronisation needs the measured w1, w2, p and q "
+                             "passed on (estimator pass_through)")
+        if not needed <= ctx.stages["sensor"].outputs:
             raise InputError("pipeline.sensor.follower_state", "synchronisation needs sensor leader_rates "
                              "with follower_state: true (the follower's own p and q)")
         self.observer = make_observer(ctx, params.gamma_1_s)

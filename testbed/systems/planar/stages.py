@@ -53,6 +53,8 @@ class HingeEncoder:
 class HingeState:
     """x = (angle, rate), the measurement unchanged."""
 
+    outputs = ("x",)
+
     def __init__(self, params, ctx):
         sensor = ctx.stages["sensor"]
         if not {"angle", "rate"} <= sensor.outputs:
@@ -75,6 +77,9 @@ class AkorLqrParams:
 class AkorLqr:
     def __init__(self, params: AkorLqrParams, ctx):
         _planar_only(ctx, "law", "akor_lqr")
+        if "x" not in ctx.stages["estimator"].outputs:
+            raise InputError("pipeline.estimator.type", "akor_lqr needs the state x = (angle, rate) "
+                             f"(estimator hinge_state), got {ctx.stages['estimator'].type!r}")
         self.gain = lqr_gain(params.beta11, params.beta22, params.k)  # k (S12, S22)
         self.J = float(ctx.description["hinge_inertia_kg_m2"])
 
