@@ -140,15 +140,8 @@ def names(slot: str) -> list[str]:
 
 
 def load_params(slot: str, config: dict | None, path: str):
-    """Validate a slot's `{type: NAME, ...params}` mapping; returns (name, params)."""
-    if config is not None and not isinstance(config, dict):
-        raise InputError(path, f"must be a mapping {{type: NAME, ...}}, got {quoted(config)}")
-    config = dict(config or {"type": "none"})
-    name = config.pop("type", None)
-    if name is None:
-        raise InputError(f"{path}.type", f"is required (one of {', '.join(names(slot))})")
-    params_cls, _ = STAGES[slot].lookup(name, f"{path}.type")
-    return name, schema.load(params_cls, config, path)
+    """Validate a slot's `{type: NAME, ...params}` mapping (absent: type none); returns (name, params)."""
+    return STAGES[slot].load({"type": "none"} if config is None else config, path, "type", lambda entry: entry[0])
 
 
 def stage_class(slot: str, name: str) -> type:

@@ -12,8 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from testbed import schema
-from testbed.errors import InputError, quoted
+from testbed.errors import InputError
 from testbed.registry import Registry
 
 
@@ -41,11 +40,8 @@ def reference(name: str, systems: tuple[str, ...], params: type = _NoParams):
 
 
 def load_params(config: dict, path: str):
-    if not isinstance(config, dict):
-        raise InputError(path, f"must be a mapping {{type: NAME, ...}}, got {quoted(config)}")
-    config = dict(config)
-    name = config.pop("type", None)
-    return name, schema.load(REFERENCES.lookup(name, f"{path}.type").params, config, path)
+    """(name, validated params) of a `reference:` mapping."""
+    return REFERENCES.load(config, path, "type", lambda kind: kind.params)
 
 
 def check_system(scenario) -> None:

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from typing import Any, Iterator
 
-from testbed.errors import InputError
+from testbed import schema
+from testbed.errors import InputError, quoted
 
 
 class DuplicateName(ValueError):
@@ -38,6 +39,17 @@ class Registry:
         if not isinstance(name, str) or name not in self._entries:
             raise InputError(field, f"unknown {self.kind} {name!r} (one of {', '.join(self.names())})")
         return self._entries[name]
+
+    def load(self, config, path: str, key: str, schema_of, keep_key: bool = False):
+        """(name, validated parameters) of a `{key: NAME, ...parameters}` mapping; the entry's
+        schema dataclass is schema_of(entry); `keep_key` leaves the key among the parameters."""
+        if not isinstance(config, dict):
+            raise InputError(path, f"must be a mapping {{{key}: NAME, ...}}, got {quoted(config)}")
+        config = dict(config)
+        name = config.get(key) if keep_key else config.pop(key, None)
+        if name is None:
+            raise InputError(f"{path}.{key}", f"is required (one of {', '.join(self.names())})")
+        return name, schema.load(schema_of(self.lookup(name, f"{path}.{key}")), config, path)
 
     def names(self) -> list[str]:
         return sorted(self._entries)

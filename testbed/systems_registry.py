@@ -11,8 +11,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from testbed import schema
-from testbed.errors import InputError, quoted
 from testbed.registry import Registry
 
 
@@ -37,11 +35,8 @@ def system(name: str, params: type, free_flying: bool = True):
 
 
 def load_params(config: dict, path: str):
-    """(name, validated params) of a `model:` mapping."""
-    if not isinstance(config, dict):
-        raise InputError(path, f"must be a mapping {{system: NAME, ...}}, got {quoted(config)}")
-    name = config.get("system")
-    return name, schema.load(SYSTEMS.lookup(name, f"{path}.system").params, config, path)
+    """(name, validated params) of a `model:` mapping (its `system` key is a field of the params)."""
+    return SYSTEMS.load(config, path, "system", lambda entry: entry.params, keep_key=True)
 
 
 def make_plant(scenario):
