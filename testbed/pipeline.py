@@ -25,7 +25,6 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from testbed import schema
 from testbed.errors import InputError, quoted
 from testbed.registry import Registry
 
