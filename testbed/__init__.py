@@ -6,7 +6,7 @@ The public API (README, "Python API"):
   a run's `RunResult` carries status, metrics, checks and `trace[key] -> (t, values)`.
 - `stage(slot, name, Params)` registers a stage; `Sensor`, `Estimator`, `Law`, `Allocator`
   state the four slots' interfaces; `StageContext` is what a stage may know when built.
-- `system`, `metric`, `reference`: the other registries; `param`: a schema field with its
+- `system`, `metric`, `reference`: the other registries (a metric gets the run's `RunData`); `param`: a schema field with its
   bounds; `Plant`: the base of a system's plant; `InputError`: bad input, naming the field.
 """
 
@@ -16,11 +16,11 @@ from testbed.metrics import metric
 from testbed.pipeline import Allocator, Estimator, Law, Sensor, StageContext, StageInfo, stage
 from testbed.plant import Plant
 from testbed.references_registry import reference
-from testbed.runner import RunResult
+from testbed.runner import RunData, RunResult
 from testbed.schema import param
 from testbed.systems_registry import system
 
 __version__ = "0.1.0"
 
-__all__ = ["Allocator", "Estimator", "InputError", "Law", "Plant", "RunResult", "Sensor", "StageContext",
+__all__ = ["Allocator", "Estimator", "InputError", "Law", "Plant", "RunData", "RunResult", "Sensor", "StageContext",
            "StageInfo", "load", "metric", "param", "read", "reference", "run", "stage", "system"]

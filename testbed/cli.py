@@ -8,14 +8,19 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
+import signal
 import sys
+import threading
+import warnings
 from pathlib import Path
 
-from testbed import api, sweep_cli  # sweep_cli registers the `sweep` subcommand
+from testbed import api, sweep_cli, trace  # sweep_cli registers the `sweep` subcommand
+from testbed import init_command  # noqa: F401  (registers the `init` subcommand)
 from testbed.commands import COMMANDS
 from testbed.errors import InputError
-from testbed.progress import advance_to, progress_bar
 from testbed.plugins import discover
+from testbed.progress import advance_to, progress_bar
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -50,7 +55,10 @@ def _parser() -> argparse.ArgumentParser:
 
 def _run_one(name: str, overrides, out: str | None, show_progress: bool):
     scenario = api.load(name, overrides)
-    out_path = Path(out) if out else Path("runs") / f"{scenario.name}.rrd"
+    return _run_loaded(scenario, Path(out) if out else Path("runs") / f"{trace.file_stem(scenario.name)}.rrd", show_progress)
+
+
+def _run_loaded(scenario, out_path: Path, show_progress: bool):
     duration = scenario.sim.duration_s
     with progress_bar(scenario.name, duration, "sim s") as bar:
         bar.disable = bar.disable or not show_progress
@@ -72,7 +80,9 @@ def _print_checks(rows) -> None:
         return
     print(f"{'scenario':28s} {'check':32s} {'value':>12s}  {'limit':16s} result")
     for scenario, c in rows:
-        print(f"{scenario:28s} {c['name']:32s} {c['value']:12.4g}  {c['limit']:16s} {'pass' if c['passed'] else 'FAIL'}")
+        why = f"  ({c['reason']})" if "reason" in c else ""
+        print(f"{scenario:28s} {c['name']:32s} {c['value']:12.4g}  {c['limit']:16s} "
+              f"{'pass' if c['passed'] else 'FAIL'}{why}")
 
 
 def _cmd_run(args) -> int:
@@ -86,14 +96,16 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_check(args) -> int:
+    from testbed.runner import prepare
     from testbed.shipped_files import SCENARIO_DIR
 
     names = args.scenarios or sorted(str(p) for p in SCENARIO_DIR.glob("*.yaml"))
-    results = []
-    for name in names:
-        stem = Path(name).stem
-        results.append(_run_one(name, [], str(Path(args.out_dir) / f"{stem}.rrd"),
-                                sys.stderr.isatty() and not args.json))
+    scenarios = [api.load(name) for name in names]  # every one valid before any runs
+    for scenario in scenarios:
+        prepare(scenario)
+    outs = [trace.output_path(Path(args.out_dir) / f"{trace.file_stem(Path(n).stem)}.rrd", "--out-dir") for n in names]
+    show = sys.stderr.isatty() and not args.json
+    results = [_run_loaded(scenario, out, show) for scenario, out in zip(scenarios, outs)]
     if args.json:
         print(json.dumps([r.as_json() for r in results]))
     else:
@@ -112,8 +124,10 @@ def _cmd_list(args) -> int:
     if not paths:  # an install without its scenario files is broken, not an empty list
         raise InputError("list", f"no scenario files (*.yaml) in {SCENARIO_DIR}")
     for path in paths:
-        data = read_yaml(path)
-        description = str(data.get("description", "")).strip().splitlines()
+        try:
+            description = str(read_yaml(path).get("description", "")).strip().splitlines()
+        except InputError as exc:  # one broken file does not hide the others
+            description = [f"(cannot be read: {exc.reason})"]
         print(f"{path.stem:28s} {description[0] if description else ''}")
     return EXIT_OK
 
@@ -140,17 +154,37 @@ def _cmd_inspect(args) -> int:
     return EXIT_OK
 
 
+class _Terminated(Exception):
+    """SIGTERM, turned into an exception so that a trace being written is removed on the way out."""
+
+
+def _terminate(signum, frame):
+    raise _Terminated()
+
+
 def main(argv: list[str] | None = None) -> int:
+    """The command line; exit status 0 every check passed, 1 a check failed or the run diverged
+    or a stage failed, 2 bad input (one line on stderr, no file written), 130 Ctrl-C, 143 SIGTERM."""
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminate) if in_main_thread else None
     try:
-        args = _parser().parse_args(argv)
-        builtin = {"run": _cmd_run, "check": _cmd_check, "list": _cmd_list, "inspect": _cmd_inspect}
-        return builtin[args.command](args) if args.command in builtin else args.func(args)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # numerical warnings never reach the terminal raw
+            args = _parser().parse_args(argv)
+            builtin = {"run": _cmd_run, "check": _cmd_check, "list": _cmd_list, "inspect": _cmd_inspect}
+            return builtin[args.command](args) if args.command in builtin else args.func(args)
     except InputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except _Terminated:
+        print("terminated", file=sys.stderr)
+        return 143
+    finally:
+        if in_main_thread:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":
