@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import re
 import signal
 import sys
@@ -154,8 +155,9 @@ def _cmd_inspect(args) -> int:
     return EXIT_OK
 
 
-class _Terminated(Exception):
-    """SIGTERM, turned into an exception so that a trace being written is removed on the way out."""
+class _Terminated(BaseException):
+    """SIGTERM, turned into an exception (like KeyboardInterrupt, not an Exception that a stage's
+    error handling would catch) so that a trace being written is removed on the way out."""
 
 
 def _terminate(signum, frame):
@@ -182,6 +184,9 @@ def main(argv: list[str] | None = None) -> int:
     except _Terminated:
         print("terminated", file=sys.stderr)
         return 143
+    except BrokenPipeError:  # the reader of stdout went away (`testbed list | head -1`)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+        return EXIT_OK
     finally:
         if in_main_thread:
             signal.signal(signal.SIGTERM, previous)

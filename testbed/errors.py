@@ -14,10 +14,17 @@ def quoted(value) -> str:
     return text if len(text) <= QUOTE_LIMIT else text[: QUOTE_LIMIT - 3] + "..."
 
 
+def one_line(text) -> str:
+    """`text` on one printable line: whitespace runs become one space, other control and
+    non-printable characters (terminal escapes, line separators) their escaped form."""
+    text = " ".join(str(text).split())
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
 class InputError(Exception):
     """Bad input: names the offending field and why; the CLI prints it on one line, exit 2."""
 
     def __init__(self, field: str, reason: str):
-        self.field = field
-        self.reason = " ".join(str(reason).split())  # one line, whatever the reason holds
-        super().__init__(f"{field}: {self.reason}")
+        self.field = one_line(field)
+        self.reason = one_line(reason)  # one line, whatever the user's value held
+        super().__init__(f"{self.field}: {self.reason}")

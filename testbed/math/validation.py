@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from testbed.errors import InputError, quoted
+from testbed.schema import UNIT_RANGES
 
 
 def finite_number(field: str, value) -> float:
@@ -102,10 +103,8 @@ def principal_moments(field: str, inertia) -> np.ndarray:
     return values
 
 
-# What a body's mass properties may be: from a gyro rotor's to far beyond a space station's,
-# inside the range where MuJoCo's compiler and the squares in the dynamics stay exact.
-INERTIA_RANGE_KG_M2 = (1e-9, 1e12)
-MASS_RANGE_KG = (1e-6, 1e12)
+INERTIA_RANGE_KG_M2 = UNIT_RANGES["_kg_m2"]
+MASS_RANGE_KG = UNIT_RANGES["_kg"]
 
 
 def check_in_range(field: str, value: float, bounds: tuple[float, float], unit: str) -> float:
