@@ -56,10 +56,10 @@ def _parser() -> argparse.ArgumentParser:
 
 def _run_one(name: str, overrides, out: str | None, show_progress: bool):
     scenario = api.load(name, overrides)
-    return _run_loaded(scenario, Path(out) if out else Path("runs") / f"{trace.file_stem(scenario.name)}.rrd", show_progress)
+    return _run_loaded(scenario, out or Path("runs") / f"{trace.file_stem(scenario.name)}.rrd", show_progress)
 
 
-def _run_loaded(scenario, out_path: Path, show_progress: bool):
+def _run_loaded(scenario, out_path, show_progress: bool):
     duration = scenario.sim.duration_s
     with progress_bar(scenario.name, duration, "sim s") as bar:
         bar.disable = bar.disable or not show_progress

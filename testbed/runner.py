@@ -30,6 +30,7 @@ class RunData:
     statistics: dict
     description: object
     momentum_scale: float
+    reference_error: str | None = None  # why the reference signals are missing, if they are
     # figures derived from the trace that several metrics share (see `shared`)
     _shared: dict = field(default_factory=dict)
 
@@ -120,6 +121,8 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
         status, error = "diverged", str(exc)
     except StageFailed as exc:
         status, error = "error", str(exc)
+    except FloatingPointError as exc:  # the plant's own read-outs overflowed: the state blew up
+        status, error = "diverged", str(SimulationDiverged(plant.time, f"{exc} in the plant's read-outs"))
     if recorder.count:
         for key, values in plant.derived_signals(recorder).items():
             recorder.add_series(key, values)
@@ -127,9 +130,13 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
                                         if hasattr(stage, "statistics")},
                    plant.description(), momentum_scale)
     if reference is not None and recorder.count > 1:
-        omega_ref = reference(recorder.time, recorder)
-        recorder.add_series("reference/omega", omega_ref)
-        recorder.add_series("reference/omega_error", recorder["truth/omega"] - omega_ref)
+        try:
+            with np.errstate(all="ignore"):
+                omega_ref = reference(recorder.time, recorder)
+            recorder.add_series("reference/omega", omega_ref)
+            recorder.add_series("reference/omega_error", recorder["truth/omega"] - omega_ref)
+        except (ValueError, ArithmeticError) as exc:  # e.g. too short a trace to interpolate
+            data.reference_error = f"the reference could not be evaluated: {exc}"
     values, why = metrics.compute_all(data) if recorder.count > 1 else ({}, {})
     checks = metrics.evaluate_checks(scenario, values, why)
     result = RunResult(scenario.name, recorder.time[-1] if recorder.count else 0.0, 0.0, status, error,

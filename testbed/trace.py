@@ -21,7 +21,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from testbed.errors import InputError
+from testbed.errors import InputError, quoted
 from testbed.recorder import Recorder, Trace
 
 APP_ID = "gyrodyne-testbed"
@@ -114,6 +114,7 @@ def recording_to(path, application: str = APP_ID):
         yield rec
         rec.flush()
         rec.disconnect()
+        os.chmod(partial, 0o666 & ~_umask())  # mkstemp made it private; a trace is an ordinary file
         os.replace(partial, path)
     except BaseException:
         rec.disconnect()
@@ -121,33 +122,44 @@ def recording_to(path, application: str = APP_ID):
         raise
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def file_stem(name: str) -> str:
-    """A scenario name made safe as a file name: no separators, no leading dots, no '..'."""
+    """A scenario name made safe as a file name: no separators, no leading dots, no '..', at
+    most 100 characters (file systems take 255 bytes, and a suffix and a temporary part follow)."""
     stem = re.sub(r"[^A-Za-z0-9._-]+", "_", name).lstrip(".")
-    return stem.replace("..", "_") or "run"
+    return stem.replace("..", "_")[:100] or "run"
 
 
 def output_path(out, field: str = "--out") -> Path:
-    """Where a trace may be written, checked before any run: not a directory or a device, its
-    folder creatable and writable. A symlink is written through (its target is replaced)."""
-    path = Path(out).expanduser()
-    if str(out).endswith(os.sep) or path.is_dir():
-        raise InputError(field, f"{path} is a directory; give a file name such as {path / 'run.rrd'}")
-    if path.exists() and not path.is_file():
-        raise InputError(field, f"{path} is not a regular file")
-    path = path.resolve()
-    for ancestor in [path.parent, *path.parent.parents]:
-        if ancestor.exists():
-            if not ancestor.is_dir():
-                raise InputError(field, f"{ancestor} is a file, so {path} cannot be created")
-            break
-    try:  # the one sure test: create a file where the trace will go
-        path.parent.mkdir(parents=True, exist_ok=True)
-        handle, probe = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".probe")
+    """Where a trace may be written, checked before any run and creating nothing: not a
+    directory (a trailing separator means one) or a device, not under a file, its nearest
+    existing folder writable, a name the file system takes. A symlink is written through (its
+    target is replaced, the link stays)."""
+    text = str(out)
+    try:
+        path = Path(text).expanduser()
+        if text.endswith(("/", os.sep)) or path.is_dir():
+            raise InputError(field, f"{quoted(text)} is a directory; give a file name such as run.rrd")
+        if path.exists() and not path.is_file():
+            raise InputError(field, f"{quoted(text)} is not a regular file")
+        path = path.resolve(strict=False)
+        existing = next(a for a in [path.parent, *path.parent.parents] if a.exists())
+        if not existing.is_dir():
+            raise InputError(field, f"{quoted(str(existing))} is a file, so {quoted(text)} cannot be created")
+        # the one sure test: create (and remove) a file of the trace's name length where it will go
+        probe_dir = path.parent if path.parent.exists() else existing
+        handle, probe = tempfile.mkstemp(dir=probe_dir, prefix=f".{path.name}.", suffix=".partial")
         os.close(handle)
         os.unlink(probe)
     except OSError as exc:
-        raise InputError(field, f"cannot write in {path.parent}: {exc.strerror}") from None
+        raise InputError(field, f"cannot write {quoted(text)}: {exc.strerror}") from None
+    except (RuntimeError, ValueError) as exc:  # a symlink loop, a NUL byte in the name
+        raise InputError(field, f"cannot write {quoted(text)}: {exc}") from None
     return path
 
 

@@ -4,6 +4,7 @@ raises InputError naming the field and the reason (never silently repairs bad in
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -152,3 +153,12 @@ def inertia_matrix(field: str, inertia) -> np.ndarray:
     if np.abs(a - a.T).max() > 1e-12 * np.abs(a).max():
         raise InputError(field, "must be symmetric")
     return check_positive_definite(a, field, symmetric=True)
+
+
+def existing_file(field: str, path) -> bool:
+    """Whether `path` names an existing regular file; a name the file system cannot take (too
+    long, a NUL byte) is refused rather than raising."""
+    try:
+        return Path(path).is_file()
+    except (OSError, ValueError) as exc:
+        raise InputError(field, f"{quoted(str(path))} is not a usable file name: {getattr(exc, 'strerror', None) or exc}") from None
