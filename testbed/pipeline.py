@@ -237,7 +237,13 @@ class Pipeline:
     def from_config(cls, configs: dict, ctx: StageContext, actuators: dict | None = None) -> "Pipeline":
         """The four stages of `configs` (slot -> (name, params)); plug-in stages get an
         `OutputCheck` (an allocator's command keys take their shapes from `actuators`)."""
-        stages = [build(slot, *configs[slot], ctx) for slot in SLOTS]
+        stages = []
+        for slot in SLOTS:
+            try:
+                stages.append(build(slot, *configs[slot], ctx))
+            except (ArithmeticError, np.linalg.LinAlgError) as exc:  # parameters too extreme to build
+                raise InputError(f"pipeline.{slot}", f"{configs[slot][0]}: its parameters cannot be built: "
+                                                     f"{type(exc).__name__}: {exc}") from None
         checks = {}
         for slot, stage_object in zip(SLOTS, stages):
             if _is_builtin(stage_object):

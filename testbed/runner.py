@@ -6,6 +6,7 @@ the state at t, hold its command (zero-order hold) for the Tc / dt physics steps
 
 from __future__ import annotations
 
+import contextlib
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -73,19 +74,34 @@ class RunResult:
 
 
 def prepare(scenario):
-    """Build the plant, the pipeline and the reference: every design-time check happens here."""
+    """Build the plant, the pipeline and the reference: every design-time check happens here.
+
+    Parameters so extreme that building from them overflows or breaks a factorisation are bad
+    input, named by the part being built (model, pipeline slot, reference)."""
     references_registry.check_system(scenario)
-    plant = systems_registry.make_plant(scenario)
-    plant.record_energy = scenario.stages["allocator"][0] == "none"
-    plant.initialise(scenario.initial)
-    ctx = stage_context(scenario, plant.locked_inertia(), plant.description())
-    pipeline = Pipeline.from_config(scenario.stages, ctx, plant.actuators)
+    with np.errstate(all="raise"), _refused_as("model"):
+        plant = systems_registry.make_plant(scenario)
+        plant.record_energy = scenario.stages["allocator"][0] == "none"
+        plant.initialise(scenario.initial)
+        ctx = stage_context(scenario, plant.locked_inertia(), plant.description())
+    with np.errstate(all="raise"):
+        pipeline = Pipeline.from_config(scenario.stages, ctx, plant.actuators)
     output = getattr(pipeline.allocator, "output", None)
     if output is not None and output not in plant.actuators:
         raise InputError("pipeline.allocator.type", f"{scenario.stages['allocator'][0]} commands {output}, "
                          f"which model.system {scenario.system} does not have")
-    reference = references_registry.prepare(scenario, plant) if scenario.reference else None
+    with np.errstate(all="raise"), _refused_as("reference"):
+        reference = references_registry.prepare(scenario, plant) if scenario.reference else None
     return plant, pipeline, reference
+
+
+@contextlib.contextmanager
+def _refused_as(field: str):
+    """Arithmetic and linear-algebra failures while building from parameters: InputError(field)."""
+    try:
+        yield
+    except (ArithmeticError, np.linalg.LinAlgError) as exc:
+        raise InputError(field, f"its parameters cannot be built: {type(exc).__name__}: {exc}") from None
 
 
 def stage_context(scenario, inertia, description=None) -> StageContext:

@@ -106,10 +106,11 @@ def recording_to(path, application: str = APP_ID):
     leave a whole file."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    handle, partial = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".partial")
-    os.close(handle)
-    rec = rr.RecordingStream(application, recording_id=str(uuid.uuid4()))
+    partial, rec = None, None
     try:
+        handle, partial = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".partial")
+        os.close(handle)
+        rec = rr.RecordingStream(application, recording_id=str(uuid.uuid4()))
         rec.save(partial)  # before logging, so nothing is buffered for a viewer
         yield rec
         rec.flush()
@@ -117,8 +118,10 @@ def recording_to(path, application: str = APP_ID):
         os.chmod(partial, 0o666 & ~_umask())  # mkstemp made it private; a trace is an ordinary file
         os.replace(partial, path)
     except BaseException:
-        rec.disconnect()
-        Path(partial).unlink(missing_ok=True)
+        if rec is not None:
+            rec.disconnect()
+        if partial is not None:
+            Path(partial).unlink(missing_ok=True)
         raise
 
 

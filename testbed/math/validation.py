@@ -134,6 +134,8 @@ def check_positive_definite(matrix, path: str, symmetric: bool) -> np.ndarray:
     m = np.asarray(matrix, float)
     if m.shape != (3, 3) or not np.all(np.isfinite(m)):
         raise InputError(path, "must be a 3x3 matrix of finite numbers")
+    if np.abs(m).max() > 1e12:  # beyond any gain or inertia here, and where eigvalsh overflows
+        raise InputError(path, f"entries must lie within +-1e12, got {np.abs(m).max():g}")
     if symmetric and not np.allclose(m, m.T, rtol=0, atol=1e-12 * np.abs(m).max()):
         raise InputError(path, "must be a symmetric matrix")
     smallest = float(np.linalg.eigvalsh((m + m.T) / 2)[0])

@@ -51,7 +51,7 @@ class CmgRhombusParams:
     mass_kg: float = param(1000.0, gt=0)
     alpha_deg: float = param(float(np.degrees(np.arctan(np.sqrt(2.0)))), gt=0, lt=90)
     rotor_momentum_nms: float = param(50.0, gt=0, doc="h of each rotor at nominal speed")
-    rotor_speed_rpm: float = param(6000.0, gt=0)
+    rotor_speed_rpm: float = param(6000.0, ge=1.0, le=1e6)
     rotor_transverse_ratio: float = param(0.6, ge=0.5, doc="Jt / Js of the rotor (>= 0.5 for a rotor)")
     rotor_mass_kg: float = param(10.0, gt=0)
     gimbal_mass_kg: float = param(5.0, gt=0)
