@@ -28,6 +28,7 @@ APP_ID = "gyrodyne-testbed"
 RESULT_ENTITY = "run/result"
 TIMELINE = "sim_time"
 SCALARS = "Scalars:scalars"
+NAME_MAX = 255  # bytes in one file or folder name (ext4 and most others)
 
 # Unit and component labels by signal name; a signal not listed is plotted unlabelled.
 UNITS = {
@@ -151,19 +152,27 @@ def output_path(out, field: str = "--out") -> Path:
         if path.exists() and not path.is_file():
             raise InputError(field, f"{quoted(text)} is not a regular file")
         path = path.resolve(strict=False)
-        existing = next(a for a in [path.parent, *path.parent.parents] if a.exists())
-        if not existing.is_dir():
-            raise InputError(field, f"{quoted(str(existing))} is a file, so {quoted(text)} cannot be created")
-        # the one sure test: create (and remove) a file of the trace's name length where it will go
-        probe_dir = path.parent if path.parent.exists() else existing
-        handle, probe = tempfile.mkstemp(dir=probe_dir, prefix=f".{path.name}.", suffix=".partial")
-        os.close(handle)
-        os.unlink(probe)
+        check_creatable(path, field)
     except OSError as exc:
         raise InputError(field, f"cannot write {quoted(text)}: {exc.strerror}") from None
     except (RuntimeError, ValueError) as exc:  # a symlink loop, a NUL byte in the name
         raise InputError(field, f"cannot write {quoted(text)}: {exc}") from None
     return path
+
+
+def check_creatable(path: Path, field: str) -> None:
+    """`path` (absolute) can be created without creating anything now: every name fits the file
+    system (NAME_MAX bytes, no NUL), its nearest existing folder is a folder and writable."""
+    for part in path.parts[1:]:
+        if len(part.encode()) > NAME_MAX or "\0" in part:
+            raise InputError(field, f"{quoted(part)} is not a name the file system takes (at most {NAME_MAX} bytes)")
+    existing = next(a for a in [path.parent, *path.parent.parents] if a.exists())
+    if not existing.is_dir():
+        raise InputError(field, f"{quoted(str(existing))} is a file, so {quoted(str(path))} cannot be created")
+    # the one sure test: create (and remove) a file of the trace's name length where it will go
+    handle, probe = tempfile.mkstemp(dir=existing, prefix=f".{path.name[:100]}.", suffix=".partial")
+    os.close(handle)
+    os.unlink(probe)
 
 
 def _write_streams(rec, recorder: Recorder, result: dict, scene: dict | None) -> None:
