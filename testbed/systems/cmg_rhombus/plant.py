@@ -1,7 +1,8 @@
 """The CMG spacecraft as a plant: gimbal-rate servos and ideal torques, cluster read-outs.
 
 `CmgRhombus` knows the compiled model's gimbal and rotor joints and servos by name;
-`CmgPlant` is what the runner steps and the sensors read.
+`CmgPlant` is what the runner steps and the sensors read; its gimbal servo
+(gimbal_servo.py) takes the gimbal-rate commands.
 """
 
 import mujoco
@@ -11,7 +12,8 @@ from testbed.errors import InputError
 from testbed.free_bus import FreeBus
 from testbed.plant import Plant
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTORS, ClusterGeometry
-from testbed.systems.cmg_rhombus.model import GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS
+from testbed.systems.cmg_rhombus.gimbal_servo import FeedForwardServo, IntVelocityServo
+from testbed.systems.cmg_rhombus.model import GIMBAL_MOTORS, GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS
 
 
 class CmgRhombus(FreeBus):
@@ -29,6 +31,9 @@ class CmgRhombus(FreeBus):
         self.gimbal_actuator_ids = np.array([model.actuator(n).id for n in GIMBAL_SERVOS])
         self.gimbal_act_adr = model.actuator_actadr[self.gimbal_actuator_ids]
         self.rotor_actuator_ids = np.array([model.actuator(n).id for n in ROTOR_SERVOS])
+        names = {model.actuator(i).name for i in range(model.nu)}
+        # the feedforward servo's motors, when the model has them
+        self.gimbal_motor_ids = np.array([model.actuator(n).id for n in GIMBAL_MOTORS if n in names], dtype=int)
         self.initial_key_id = model.key(INITIAL_KEY).id
         # every dof that is not the bus free joint belongs to a gimbal or a rotor
         bus_dofs = set(range(self.qvel_adr, self.qvel_adr + 6))
@@ -93,21 +98,33 @@ class CmgRhombus(FreeBus):
 
 
 class CmgPlant(Plant):
-    """Truth adds gimbal angles and rates, rotor rates and the cluster momentum H (body frame)."""
+    """Truth adds gimbal angles and rates, the gimbal-rate command the servos held, rotor
+    rates and the cluster momentum H (body frame)."""
 
     actuators = {"body_torque": (3,), "gimbal_rates": (N_CMG,)}
 
-    def __init__(self, model):
+    def __init__(self, model, params, control_period: float):
+        """`params`: the validated CmgRhombusParams `model` was built from (its servo model and
+        limits); `control_period` [s]: how long each command is held."""
         super().__init__(CmgRhombus(model))
         self.geometry = self.bus.geometry
+        rate_limit = None if params.gimbal_rate_limit_deg_s is None else np.radians(params.gimbal_rate_limit_deg_s)
+        if params.servo_model == "feedforward":
+            self.servo = FeedForwardServo(self.bus, model, self.data, params.servo_natural_frequency_rad_s,
+                                          params.servo_damping_ratio, control_period, rate_limit,
+                                          params.gimbal_torque_limit_nm)
+        else:
+            self.servo = IntVelocityServo(self.bus, self.data, rate_limit)
 
     def initialise(self, initial) -> None:
         self.bus.initialise(self.data, initial.omega, initial.quat)
+        self.servo.start(self.data)
 
     def truth(self) -> dict[str, np.ndarray]:
         signals = super().truth()
         signals.update(gimbal_angle=self.bus.gimbal_angles(self.data),
                        gimbal_rate=self.bus.gimbal_rates(self.data),
+                       gimbal_rate_command=self.servo.held_command(self.data),
                        rotor_rate=self.bus.rotor_rates(self.data))
         return signals
 
@@ -124,9 +141,7 @@ class CmgPlant(Plant):
 
     def apply(self, command: dict[str, np.ndarray]) -> None:
         super().apply(command)
-        rates = command.get("gimbal_rates")
-        if rates is not None:
-            self.bus.set_gimbal_rate_command(self.data, rates)
+        self.servo.apply(self.data, command.get("gimbal_rates"))
 
     def internal_momentum_body(self) -> np.ndarray:
         return self.bus.internal_momentum_body(self.data)
