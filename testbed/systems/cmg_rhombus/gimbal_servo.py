@@ -104,22 +104,29 @@ class IntVelocityServo:
     command held over the last control period (what the servo was asked to track)."""
 
     def __init__(self, bus, data, rate_limit: float | None = None):
-        self._ctrl = _view(data.ctrl, bus.gimbal_actuator_ids)
+        self._rates = _view(data.ctrl, bus.gimbal_actuator_ids)
+        self._ctrl = self._rates  # what apply writes
         self.rate_limit = rate_limit
         self._applied_at = None
-        self._current = self._previous = self._ctrl.tolist()
+        self._current = self._previous = self._rates.tolist()
 
     def start(self, data) -> None:
         """At the initial state: the command held before t = 0 is the one in MuJoCo's ctrl."""
-        self._current = self._previous = self._ctrl.tolist()
+        self._current = self._previous = self._rates.tolist()
 
     def apply(self, data, rates) -> None:
         """Take this tick's command (None: hold the last one)."""
-        self._previous = self._current
-        if rates is not None:
-            self._current = rates.tolist() if type(rates) is np.ndarray else [float(r) for r in rates]
+        if self._take(data, rates):
             self._ctrl[:] = self._current  # MuJoCo clips to the rate limit (ctrlrange)
+
+    def _take(self, data, rates) -> bool:
+        """Remember this tick's command and the one held until now; False: no new command."""
+        self._previous = self._current
         self._applied_at = data.time
+        if rates is None:
+            return False
+        self._current = rates.tolist() if type(rates) is np.ndarray else [float(r) for r in rates]
+        return True
 
     def held_command(self, data) -> np.ndarray:
         """The gimbal-rate command [rad/s] the servos held over the control period that ends
@@ -145,54 +152,57 @@ class FeedForwardServo(IntVelocityServo):
                              f"{MAX_FEEDFORWARD_OMEGA_TC:g}: the PD alone settles within the control "
                              "period, use servo_model: intvelocity")
         super().__init__(bus, data, rate_limit)
-        self._torque = _view(data.ctrl, bus.gimbal_motor_ids)
+        # the servos' rate commands and the motors' torques, side by side in MuJoCo's ctrl
+        self._ctrl = _view(data.ctrl, np.concatenate([bus.gimbal_actuator_ids, bus.gimbal_motor_ids]))
         self._rate = _view(data.qvel, bus.gimbal_qvel_adr)
         self._angle = _view(data.qpos, bus.gimbal_qpos_adr)
         self._setpoint = _view(data.act, bus.gimbal_act_adr)
         self._bias = _view(data.qfrc_bias, bus.gimbal_qvel_adr)
         self._dofs = np.asarray(bus.gimbal_qvel_adr)
-        self._kv = (-model.actuator_biasprm[bus.gimbal_actuator_ids, 2]).tolist()
+        self._kv = -model.actuator_biasprm[bus.gimbal_actuator_ids, 2]
         self.p, self.q, self.gamma = rate_deadbeat_gains(natural_frequency, damping_ratio, control_period)
         self.torque_limit = torque_limit
         self.model = model
 
     def start(self, data) -> None:
         """At the initial state, after mj_forward: effective inertias from the mass matrix,
-        the observer at the torque that held the gimbals at rest, the motors at it."""
+        the observer at the torque that held the gimbals at rest."""
         inverse = np.zeros((self.model.nv, self.model.nv))
         mujoco.mj_solveM(self.model, data, inverse, np.eye(self.model.nv))
         inertia = 1.0 / np.diag(inverse)[self._dofs]
-        self._observer_gain = (inertia / self.gamma).tolist()          # J / Gamma_1
-        self._deadbeat_p = (inertia * self.p).tolist()                 # J p
-        self._deadbeat_q = (inertia * self.q).tolist()                 # J q
-        disturbance = (-self._bias).tolist()
-        self._estimate = disturbance      # delta over the last tick
-        self._predicted = disturbance     # delta^ over the coming tick
+        # per gimbal: (J / Gamma_1, kv + J q, J p, J q), so that
+        # u = kv c - J (p theta + q (b' - c)) - delta^ = (kv + J q) c - J p theta - J q b' - delta^
+        self._gains = list(zip((inertia / self.gamma).tolist(), (self._kv + inertia * self.q).tolist(),
+                               (inertia * self.p).tolist(), (inertia * self.q).tolist()))
+        # per gimbal: (delta over the last tick, delta^ over the coming one)
+        self._observer = [(d, d) for d in (-self._bias).tolist()]
         self._current = self._previous = self._rate.tolist()  # no rate error before t = 0
 
     def apply(self, data, rates) -> None:
         """This tick's command: the observer's update from the last tick, then the held
-        motor torque u_k (module docstring)."""
-        super().apply(data, rates)
-        command = self._clipped(self._current)
-        followed = self._clipped(self._previous)
-        rate, angle, setpoint = self._rate.tolist(), self._angle.tolist(), self._setpoint.tolist()
-        estimate, predicted, torque = [], [], []
-        for i, (b_rate, c, c_last, kv) in enumerate(zip(rate, command, followed, self._kv)):
-            delta = self._predicted[i] + self._observer_gain[i] * (b_rate - c_last)
-            coming = 2.0 * delta - self._estimate[i]
-            estimate.append(delta)
-            predicted.append(coming)
-            torque.append(kv * c - self._deadbeat_p[i] * (angle[i] - setpoint[i])
-                          - self._deadbeat_q[i] * (b_rate - c) - coming)
+        motor torque u_k (module docstring). Plain floats: four gimbals cost less in Python
+        arithmetic than in numpy's calls."""
+        self._take(data, rates)
+        if self.rate_limit is None:
+            command, followed = self._current, self._previous
+        else:
+            command, followed = self._clipped(self._current), self._clipped(self._previous)
+        observer, torque = [], []
+        for rate, angle, setpoint, c, c_last, (last, predicted), (gain, kv_q, jp, jq) in zip(
+                self._rate.tolist(), self._angle.tolist(), self._setpoint.tolist(), command, followed,
+                self._observer, self._gains):
+            delta = predicted + gain * (rate - c_last)  # the disturbance the last tick met
+            coming = 2.0 * delta - last  # extrapolated over this tick
+            observer.append((delta, coming))
+            torque.append(kv_q * c - jp * (angle - setpoint) - jq * rate - coming)
         if self.torque_limit is not None:
             applied = self._limited(torque)
             # what the motor leaves out counts as disturbance it did not compensate, so the
             # next tick's residual is read against the torque it really gave
-            predicted = [d + u - a for d, u, a in zip(predicted, torque, applied)]
+            observer = [(d, coming + u - a) for (d, coming), u, a in zip(observer, torque, applied)]
             torque = applied
-        self._estimate, self._predicted = estimate, predicted
-        self._torque[:] = torque
+        self._observer = observer
+        self._ctrl[:] = self._current + torque  # MuJoCo clips the rates to the limit (ctrlrange)
 
     def _limited(self, torques: list) -> list:
         limit = self.torque_limit

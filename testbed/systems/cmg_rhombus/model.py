@@ -22,7 +22,7 @@ from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTOR_SPEED_NUME
 
 GIMBAL_SERVOS = tuple(f"gimbal_rate{i}" for i in range(1, N_CMG + 1))
 ROTOR_SERVOS = tuple(f"rotor_speed{i}" for i in range(1, N_CMG + 1))
-GIMBAL_MOTORS = tuple(f"gimbal_torque{i}" for i in range(1, N_CMG + 1))  # feedforward servo only
+GIMBAL_MOTORS = tuple(f"gimbal_torque{i}" for i in range(1, N_CMG + 1))  # kept for servo_model feedforward
 INITIAL_KEY = "initial"
 
 # RK4 stays accurate and stable for the servo modes when (rate x dt) is well below its
@@ -126,9 +126,8 @@ def build(params: CmgRhombusParams, dt: float, integrator: str = "RK4") -> mujoc
         speed.gainprm = _with_first(speed.gainprm, [rotor_kv])
         speed.biasprm = _with_first(speed.biasprm, [0.0, 0.0, -rotor_kv])
         _apply_limits(spec, params, i)
-    if params.servo_model == "feedforward":
-        for i in range(N_CMG):  # appended after every other actuator: one contiguous block
-            spec.add_actuator(name=GIMBAL_MOTORS[i], target=GIMBALS[i], trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        if params.servo_model != "feedforward":
+            spec.delete(spec.actuator(GIMBAL_MOTORS[i]))  # the intvelocity servo has no motor
 
     spec.numeric(ROTOR_SPEED_NUMERIC).data = [omega_rotor]
     motors = N_CMG if params.servo_model == "feedforward" else 0
@@ -186,4 +185,4 @@ def _write_initial_key(spec, beta0, omega_rotor, motors=0):
     key.qpos = qpos
     key.qvel = qvel
     key.act = list(beta0)
-    key.ctrl = [0.0] * 3 + [0.0] * N_CMG + [omega_rotor] * N_CMG + [0.0] * motors
+    key.ctrl = [0.0] * 3 + [0.0] * N_CMG + [0.0] * motors + [omega_rotor] * N_CMG
