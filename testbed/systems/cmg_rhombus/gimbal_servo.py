@@ -89,22 +89,12 @@ def rate_deadbeat_gains(natural_frequency: float, damping_ratio: float, control_
     return transition[1, 0] / gamma, transition[1, 1] / gamma, gamma
 
 
-def _view(array: np.ndarray, addresses) -> np.ndarray:
-    """array[addresses] as a view (a strided slice) when the addresses are evenly spaced,
-    so a servo reads and writes MuJoCo's arrays without copying them each tick."""
-    addresses = [int(a) for a in addresses]
-    steps = {b - a for a, b in zip(addresses, addresses[1:])}
-    if len(steps) == 1 and next(iter(steps)) > 0:
-        return array[addresses[0]:addresses[-1] + 1:steps.pop()]
-    raise ValueError(f"addresses {addresses} are not evenly spaced")
-
-
 class IntVelocityServo:
     """Hands the gimbal-rate command to MuJoCo's intvelocity actuators and remembers the
     command held over the last control period (what the servo was asked to track)."""
 
     def __init__(self, bus, data, rate_limit: float | None = None):
-        self._rates = _view(data.ctrl, bus.gimbal_actuator_ids)
+        self._rates = data.ctrl[bus.gimbal_ctrl]  # views into MuJoCo's arrays, kept
         self._ctrl = self._rates  # what apply writes
         self.rate_limit = rate_limit
         self._applied_at = None
@@ -153,11 +143,11 @@ class FeedForwardServo(IntVelocityServo):
                              "period, use servo_model: intvelocity")
         super().__init__(bus, data, rate_limit)
         # the servos' rate commands and the motors' torques, side by side in MuJoCo's ctrl
-        self._ctrl = _view(data.ctrl, np.concatenate([bus.gimbal_actuator_ids, bus.gimbal_motor_ids]))
-        self._rate = _view(data.qvel, bus.gimbal_qvel_adr)
-        self._angle = _view(data.qpos, bus.gimbal_qpos_adr)
-        self._setpoint = _view(data.act, bus.gimbal_act_adr)
-        self._bias = _view(data.qfrc_bias, bus.gimbal_qvel_adr)
+        self._ctrl = data.ctrl[bus.gimbal_servo_ctrl]
+        self._rate = data.qvel[bus.gimbal_qvel]
+        self._angle = data.qpos[bus.gimbal_qpos]
+        self._setpoint = data.act[bus.gimbal_act]
+        self._bias = data.qfrc_bias[bus.gimbal_qvel]
         self._dofs = np.asarray(bus.gimbal_qvel_adr)
         self._kv = -model.actuator_biasprm[bus.gimbal_actuator_ids, 2]
         self.p, self.q, self.gamma = rate_deadbeat_gains(natural_frequency, damping_ratio, control_period)

@@ -16,6 +16,16 @@ from testbed.systems.cmg_rhombus.gimbal_servo import FeedForwardServo, IntVeloci
 from testbed.systems.cmg_rhombus.model import GIMBAL_MOTORS, GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS
 
 
+def evenly_spaced(addresses) -> slice:
+    """The slice that picks `addresses` (evenly spaced, increasing) out of a MuJoCo array: a
+    read through it copies nothing, and a view through it can be kept and written."""
+    addresses = [int(a) for a in addresses]
+    steps = {b - a for a, b in zip(addresses, addresses[1:])}
+    if len(steps) != 1 or min(steps) <= 0:
+        raise ValueError(f"addresses {addresses} are not evenly spaced")
+    return slice(addresses[0], addresses[-1] + 1, steps.pop())
+
+
 class CmgRhombus(FreeBus):
     """The compiled CMG spacecraft, known by joint and actuator names."""
 
@@ -35,21 +45,29 @@ class CmgRhombus(FreeBus):
         # the feedforward servo's motors, when the model has them
         self.gimbal_motor_ids = np.array([model.actuator(n).id for n in GIMBAL_MOTORS if n in names], dtype=int)
         self.initial_key_id = model.key(INITIAL_KEY).id
+        # the same addresses as slices (MuJoCo lays the four CMGs out alike)
+        self.gimbal_qpos = evenly_spaced(self.gimbal_qpos_adr)
+        self.gimbal_qvel = evenly_spaced(self.gimbal_qvel_adr)
+        self.rotor_qvel = evenly_spaced(self.rotor_qvel_adr)
+        self.gimbal_act = evenly_spaced(self.gimbal_act_adr)
+        self.gimbal_ctrl = evenly_spaced(self.gimbal_actuator_ids)
+        # the servos' rate commands, then the motors' torques when the model has them
+        self.gimbal_servo_ctrl = evenly_spaced(np.concatenate([self.gimbal_actuator_ids, self.gimbal_motor_ids]))
         # every dof that is not the bus free joint belongs to a gimbal or a rotor
         bus_dofs = set(range(self.qvel_adr, self.qvel_adr + 6))
         self.internal_dofs = np.array([i for i in range(model.nv) if i not in bus_dofs])
 
     def gimbal_angles(self, data):
         """Gimbal angles beta [rad], (4,)."""
-        return data.qpos[self.gimbal_qpos_adr].copy()
+        return data.qpos[self.gimbal_qpos].copy()
 
     def gimbal_rates(self, data):
         """Gimbal rates beta' [rad/s], (4,)."""
-        return data.qvel[self.gimbal_qvel_adr].copy()
+        return data.qvel[self.gimbal_qvel].copy()
 
     def rotor_rates(self, data):
         """Rotor speeds relative to their gimbals Omega [rad/s], (4,)."""
-        return data.qvel[self.rotor_qvel_adr].copy()
+        return data.qvel[self.rotor_qvel].copy()
 
     def set_gimbal_rate_command(self, data, rates):
         """Command gimbal rates [rad/s]; the servo integrates them into an angle set-point."""
