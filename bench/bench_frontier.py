@@ -45,35 +45,38 @@ def step_overrides(dt: float, servo: str) -> list[str]:
 
 
 def run(overrides: list[str], duration: float | None, keep: bool = False):
-    """One cmg_open_loop run with its trace written: (result, wall seconds)."""
+    """One cmg_open_loop run with its trace written: (result, wall seconds, CPU seconds of
+    this process; the second is less sensitive to other processes on the machine)."""
     extra = ["reference=", "checks={}"] + ([f"sim.duration_s={duration}"] if duration else [])
     scenario = load_scenario("cmg_open_loop", extra + overrides)
     with tempfile.TemporaryDirectory() as tmp:
-        t0 = time.perf_counter()
+        wall0, cpu0 = time.perf_counter(), time.process_time()
         result = run_scenario(scenario, Path(tmp) / "frontier.rrd", keep_data=keep)
-        wall = time.perf_counter() - t0
+        wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
     if result.status != "ok":
         raise SystemExit(f"{overrides}: {result.status} {result.error}")
-    return result, wall
+    return result, wall, cpu
 
 
 def frontier(repeat: int, duration: float | None) -> None:
     points = [BEFORE] + [(f"{servo} dt {dt:g}", step_overrides(dt, servo))
                          for dt in STEPS for servo in ("intvelocity", "feedforward")]
     walls = {label: float("inf") for label, _ in points}
+    cpus = dict(walls)
     results = {}
     for _ in range(repeat):  # alternate the points so that load from elsewhere hits all alike
         for label, overrides in points:
-            results[label], wall = run(overrides, duration)
-            walls[label] = min(walls[label], wall)
+            results[label], wall, cpu = run(overrides, duration)
+            walls[label], cpus[label] = min(walls[label], wall), min(cpus[label], cpu)
     simulated = results[BEFORE[0]].sim_s
+    before = BEFORE[0]
     print(f"cmg_open_loop, {simulated:g} s simulated, fastest of {repeat}")
-    print("| point | tracking error | momentum drift | sim s / wall s | wall / before |")
-    print("|---|---:|---:|---:|---:|")
+    print("| point | tracking error | momentum drift | sim s / wall s | wall / before | CPU / before |")
+    print("|---|---:|---:|---:|---:|---:|")
     for label, _ in points:
         m = results[label].metrics
         print(f"| {label} | {m['gimbal_rate_error_rel']:.2e} | {m['momentum_drift_rel']:.1e} | "
-              f"{simulated / walls[label]:.0f} | {walls[label] / walls[BEFORE[0]]:.2f} |")
+              f"{simulated / walls[label]:.0f} | {walls[label] / walls[before]:.2f} | {cpus[label] / cpus[before]:.2f} |")
 
 
 SOURCES = [
@@ -112,7 +115,7 @@ def sources(duration: float | None) -> None:
     print("| case | drift by 0.1 s | drift by the end | tracking |")
     print("|---|---:|---:|---:|")
     for label, overrides in SOURCES:
-        result, _ = run(base + overrides, duration, keep=True)
+        result, _, _ = run(base + overrides, duration, keep=True)
         t, momentum = result.trace["truth/angular_momentum_world"]
         drift = np.linalg.norm(momentum - momentum[0], axis=1) / result.data.momentum_scale
         commanded = np.max(np.abs(result.trace["truth/gimbal_rate_command"][1])) > 0
