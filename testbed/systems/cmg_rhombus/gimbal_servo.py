@@ -98,7 +98,7 @@ class IntVelocityServo:
         self._ctrl = self._rates  # what apply writes
         self.rate_limit = rate_limit
         self._applied_at = None
-        self._current = self._previous = self._rates.tolist()
+        IntVelocityServo.start(self, data)  # not a subclass's: that one needs mj_forward first
 
     def start(self, data) -> None:
         """At the initial state: the command held before t = 0 is the one in MuJoCo's ctrl."""
