@@ -168,20 +168,21 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
 
 
 def _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress) -> None:
+    """Tick k: the pipeline at t = k Tc, a trace sample of the stages' outputs and the truth
+    every `trace_every` ticks, then Tc / dt physics steps; the truth alone at the end."""
     steps = sim.steps_per_tick
     tc = sim.control_period_s
     report_every = max(1, n_ticks // 200)
-    for k in range(n_ticks + 1):
+    tick, step = pipeline.tick, plant.step
+    for k in range(n_ticks):
         t = k * tc
-        sample = k % trace_every == 0
-        if k == n_ticks:
-            if sample:
-                recorder.sample(t, {"truth": plant.truth()})
-            break
-        signals = pipeline.tick(t, plant)
-        if sample:
+        tick(t, plant)
+        if k % trace_every == 0:
+            signals = pipeline.signals()
             signals["truth"] = plant.truth()
             recorder.sample(t, signals)
-        plant.step(steps)
+        step(steps)
         if progress is not None and k % report_every == 0:
             progress(k / n_ticks)
+    if n_ticks % trace_every == 0:
+        recorder.sample(n_ticks * tc, {"truth": plant.truth()})
