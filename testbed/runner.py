@@ -125,7 +125,7 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     sim = scenario.sim
     n_ticks = round(sim.duration_s / sim.control_period_s)
     trace_every = round(sim.trace_period_s / sim.control_period_s)
-    recorder = Recorder(n_ticks // trace_every + 1)
+    recorder = Recorder(-(-n_ticks // trace_every) + 1)  # the samples on the grid and the final state
     momentum_scale = plant.momentum_scale()
     status, error = "ok", None
     try:
@@ -169,7 +169,7 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
 
 def _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress) -> None:
     """Tick k: the pipeline at t = k Tc, a trace sample of the stages' outputs and the truth
-    every `trace_every` ticks, then Tc / dt physics steps; the truth alone at the end."""
+    every `trace_every` ticks, then Tc / dt physics steps; the truth alone at the end (always)."""
     steps = sim.steps_per_tick
     tc = sim.control_period_s
     report_every = max(1, n_ticks // 200)
@@ -184,5 +184,4 @@ def _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress) -> Non
         step(steps)
         if progress is not None and k % report_every == 0:
             progress(k / n_ticks)
-    if n_ticks % trace_every == 0:
-        recorder.sample(n_ticks * tc, {"truth": plant.truth()})
+    recorder.sample(n_ticks * tc, {"truth": plant.truth()})  # the final state, on the trace grid or not

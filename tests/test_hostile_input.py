@@ -341,6 +341,23 @@ def test_sweep_distribution_spanning_the_float_range(cli, distribution):
     assert_refused(result, None, "sweep")
 
 
+@pytest.mark.parametrize("duration, trace_period", [("10", "3"), ("20", "1000")])
+def test_trace_period_that_does_not_divide_the_run(cli, duration, trace_period):
+    """A trace period that does not divide the duration (or exceeds it): refused naming
+    sim.trace_period_s, or the run is whole: README "the final state, at duration_s, is recorded
+    for truth/*", so the trace and sim_s reach duration_s (and final_* metrics are final)."""
+    out = Path.cwd() / "x.rrd"
+    result = cli("run", "torque_free_skylab", "--out", out, "--json", "--set", f"sim.duration_s={duration}",
+                 "--set", f"sim.trace_period_s={trace_period}")
+    if result.code == 2:
+        assert_refused(result, "sim.trace_period_s")
+        return
+    stored = assert_ran(result, out)
+    t, _ = testbed.read(out).trace["truth/omega"]
+    assert t[-1] == pytest.approx(float(duration)), t
+    assert stored["sim_s"] == pytest.approx(float(duration))
+
+
 # --- 5. vectors of the wrong length for the system --------------------------------------------
 
 def test_three_gimbal_profile_on_the_four_gimbal_cluster(cli):
