@@ -52,12 +52,12 @@ momentum; `bench/bench_frontier.py --sources` prints every number below):
   the command starts at zero.
 - not the rotors: at 12 000 rpm with the same gimbal-axis inertia, the rotors turning two
   revolutions a step, the drift is the same to three digits as at 6000 rpm (3.18e-10
-  intvelocity; 1.42e-10 and 1.45e-10 feedforward); a rotor loop time constant of 0.2 s
+  intvelocity; 1.42e-10 and 1.43e-10 feedforward); a rotor loop time constant of 0.2 s
   instead of 0.02 s changes nothing either.
 - the gimbals turning on the turning bus: after the start, the drift grows while the gimbals
-  move (1.45e-10 over 600 s with the command starting at zero; 7.6e-13 with the gimbals
+  move (1.43e-10 over 600 s with the command starting at zero; 7.6e-13 with the gimbals
   still), with the square of their rates (amplitude x2: 6.8e-10), inversely with the
-  gimbal-axis inertia (4.5 times more: 3.0e-11) and as dt^4 (dt 0.005 s: 7.2e-12): RK4's
+  gimbal-axis inertia (4.5 times more: 2.9e-11) and as dt^4 (dt 0.005 s: 6.7e-12): RK4's
   error in the gyroscopic coupling of gimbals and bus.
 At dt = Tc = 0.01 s the feedforward servo with w_n = 5 rad/s thus drifts 2.4e-10 and tracks
 to 2.4e-5 of the amplitude (README, "The gimbal servo and the time step").
