@@ -221,6 +221,10 @@ class LebedevObserver:
         self.max_substep = float(max_substep)
         self.z = np.zeros(3)
 
+    def closed_gain(self, momentum=None):
+        """The gain l_c of the closed-loop observer (eq. 4.6) for the momentum held [N m s]."""
+        return self.l_closed
+
     def reset(self, z0=None):
         """Set the estimate (default z = 0, as at the start of the start-up phase, eq. 3.1)."""
         self.z = np.zeros(3) if z0 is None else np.asarray(z0, dtype=float).copy()
@@ -231,29 +235,36 @@ class LebedevObserver:
             dz = dz + lebedev_nonlinearity(self.a, z) + u
         return dz
 
-    def _advance(self, y, u, dt, nonlinear):
+    def _advance(self, y, u, dt, nonlinear, y_end=None):
         if not dt > 0:
             raise InputError("control.period", f"must be > 0, got {dt}")
         y_dev = float(y) - self.C[2] * self.spin_rate
         n = max(1, int(np.ceil(dt / self.max_substep - 1e-9)))
-        self.z = rk4_steps(lambda s, z: self._rhs(z, y_dev, u, nonlinear), self.z, dt, n)
+        if y_end is None:  # zero-order hold: y over the interval is the sample at its start
+            rhs = lambda s, z: self._rhs(z, y_dev, u, nonlinear)  # noqa: E731
+        else:              # first-order hold: y moves linearly to the sample at its end
+            slope = float(y_end) - float(y)
+            rhs = lambda s, z: self._rhs(z, y_dev + s * slope, u, nonlinear)  # noqa: E731
+        self.z = rk4_steps(rhs, self.z, dt, n)
         return self.z
 
-    def startup_step(self, y, dt):
+    def startup_step(self, y, dt, y_end=None):
         """Advance the start-up observer z' = A z + l (y_dev - C z) by dt (Lebedev 1976, eq. 3.1).
 
         No F(z) and no u: the body is uncontrolled and still far from the spin that F is
         expanded about, and with F(z) the estimate stalls (SEEDS §000: ~6 deg/s error
-        against ~0.2 deg/s without it).
+        against ~0.2 deg/s without it). `y` is the sample at the start of the interval;
+        with `y_end` (the sample at its end) y is interpolated linearly between them.
         """
-        return self._advance(y, np.zeros(3), dt, nonlinear=False)
+        return self._advance(y, np.zeros(3), dt, nonlinear=False, y_end=y_end)
 
-    def step(self, y, u, dt):
+    def step(self, y, u, dt, y_end=None):
         """Advance z' = A z + l (y_dev - C z) + F(z) + u by dt (Lebedev 1976, eq. 4.6).
 
-        u = M / I [rad/s^2] is the input applied over this period.
+        u = M / I [rad/s^2] is the input applied over this period; `y`, `y_end` as in
+        `startup_step`.
         """
-        return self._advance(y, np.asarray(u, dtype=float), dt, nonlinear=True)
+        return self._advance(y, np.asarray(u, dtype=float), dt, nonlinear=True, y_end=y_end)
 
     def omega_estimate(self):
         """Estimated body rate w = z + (0, 0, Omega) [rad/s] (inverse of eq. 4.1)."""

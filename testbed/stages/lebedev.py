@@ -121,6 +121,9 @@ class LebedevObserverParams:
     poles_imag_per_s: list[float] = param([0.0, 0.0, 0.0], length=3, doc="imaginary parts (conjugate pairs)")
     startup_s: float = param(ge=0, doc="open-loop start-up phase (section 3) before control begins")
     max_substep_s: float = param(0.05, ge=1e-4, doc="RK4 substep of the observer ODE within a control period")
+    measurement_hold: Literal["zero_order", "linear"] = param("zero_order", doc=(
+        "y between two samples: the older held (zero_order) or interpolated linearly to the newer "
+        "(linear; causal, both samples are in hand when the interval is integrated)"))
     design_momentum_nms: list[float] | None = param(None, length=3, doc=(
         "internal (CMG) momentum H at the operating point, body axes: the closed-loop gain then places "
         "eig(A + I^-1 [H x] - l C); none: the paper's rigid body"))
@@ -155,23 +158,31 @@ class LebedevEstimator:
                  "observer.poles": "pipeline.estimator.poles_per_s",
                  "observer.max_substep": "pipeline.estimator.max_substep_s"}
         with scenario_fields(names):
-            self.observer = LebedevObserver(self.inertia, law.design["spin_rate"], sensor.design["sensing_axis"],
-                                            params.poles,
-                                            params.max_substep_s, params.design_momentum_nms)
+            self.observer = self.build_observer(params, ctx.inertia, law.design["spin_rate"],
+                                                sensor.design["sensing_axis"])
         self.startup = params.startup_s
+        self.linear_hold = params.measurement_hold == "linear"
         self.l = self.observer.l
         self._t_prev: float | None = None
         self._y_prev = 0.0
+
+    @staticmethod
+    def build_observer(params: LebedevObserverParams, inertia, spin_rate: float, sensing_axis) -> LebedevObserver:
+        """The observer of eq. 3.1 and 4.6 these parameters describe (also built by the
+        continuous-time reference, testbed/stages/lebedev_reference.py)."""
+        return LebedevObserver(principal_axes_moments(inertia), spin_rate, sensing_axis, params.poles,
+                               params.max_substep_s, params.design_momentum_nms)
 
     def estimate(self, t, measurement, command):
         y = float(np.asarray(measurement["y"])[0])
         if self._t_prev is not None:
             h = t - self._t_prev
+            y_end = y if self.linear_hold else None
             if self._t_prev < self.startup:
-                self.observer.startup_step(self._y_prev, h)      # eq. 3.1, body uncontrolled
+                self.observer.startup_step(self._y_prev, h, y_end)      # eq. 3.1, body uncontrolled
             else:
                 torque = np.asarray(command.get(self.torque_key, np.zeros(3)), float)
-                self.observer.step(self._y_prev, torque / self.inertia, h)  # eq. 4.6, u = M / I
+                self.observer.step(self._y_prev, torque / self.inertia, h, y_end)  # eq. 4.6, u = M / I
         self._t_prev, self._y_prev = t, y
         obs = self.observer
         innovation = y - obs.C[2] * obs.spin_rate - obs.C @ obs.z
