@@ -78,7 +78,6 @@ def prepare(scenario):
 
     Parameters so extreme that building from them overflows or breaks a factorisation are bad
     input, named by the part being built (model, pipeline slot, reference)."""
-    references_registry.check_system(scenario)
     with np.errstate(all="raise"), _refused_as("model"):
         plant = systems_registry.make_plant(scenario)
         plant.record_energy = scenario.stages["allocator"][0] == "none"
@@ -90,6 +89,7 @@ def prepare(scenario):
     if output is not None and output not in plant.actuators:
         raise InputError("pipeline.allocator.type", f"{scenario.stages['allocator'][0]} commands {output}, "
                          f"which model.system {scenario.system} does not have")
+    references_registry.check_system(scenario)  # after the stages: a reference describes them
     with np.errstate(all="raise"), _refused_as("reference"):
         reference = references_registry.prepare(scenario, plant) if scenario.reference else None
     return plant, pipeline, reference

@@ -89,10 +89,15 @@ pipeline:
 reference: {type: lebedev_continuous}
 """)
     deviation = {}
-    for h in (0.02, 0.01):
-        run = run_scenario(load_scenario(str(case), [f"sim.dt_s={h}", f"sim.control_period_s={h}"]), None)
-        assert run.status == "ok"
-        deviation[h] = run.metrics["max_deviation_from_continuous_deg_s"]
-    assert deviation[0.02] / deviation[0.01] == pytest.approx(2.0, rel=0.03)
-    assert abs(2 * deviation[0.01] - deviation[0.02]) < 0.03 * deviation[0.01]
-    assert 0.2 < deviation[0.02] < 0.3   # measured 0.2538: the zero-order hold of y is first order
+    for hold in ("zero_order", "linear"):
+        for h in (0.02, 0.01):
+            run = run_scenario(load_scenario(str(case), [f"sim.dt_s={h}", f"sim.control_period_s={h}",
+                                                         f"pipeline.estimator.measurement_hold={hold}"]), None)
+            assert run.status == "ok"
+            deviation[hold, h] = run.metrics["max_deviation_from_continuous_deg_s"]
+        assert deviation[hold, 0.02] / deviation[hold, 0.01] == pytest.approx(2.0, rel=0.03)
+        assert abs(2 * deviation[hold, 0.01] - deviation[hold, 0.02]) < 0.03 * deviation[hold, 0.01]
+    assert 0.2 < deviation["zero_order", 0.02] < 0.3   # measured 0.2538: holding y is first order ...
+    # ... and so is the linear hold, but 86 times smaller (measured 0.00294): what is left is the
+    # law's torque held over the period
+    assert deviation["linear", 0.02] < deviation["zero_order", 0.02] / 50
