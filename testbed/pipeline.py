@@ -51,6 +51,7 @@ class StageContext:
     dt: float                   # physics step [s]
     control_period: float       # pipeline sample period [s]
     inertia: np.ndarray         # spacecraft locked inertia about its CoM, body axes [kg m^2]
+    internal_momentum: Any = None  # momentum of the moving parts relative to the bus at t = 0, body axes [N m s]
     description: Any = None     # the plant's static design data (e.g. an actuator cluster's geometry)
     system: str = ""            # model.system
     free_flying: bool = True    # a free body with three rotational degrees of freedom

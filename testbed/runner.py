@@ -82,7 +82,7 @@ def prepare(scenario):
         plant = systems_registry.make_plant(scenario)
         plant.record_energy = scenario.stages["allocator"][0] == "none"
         plant.initialise(scenario.initial)
-        ctx = stage_context(scenario, plant.locked_inertia(), plant.description())
+        ctx = stage_context(scenario, plant.locked_inertia(), plant.description(), plant.internal_momentum_body())
     with np.errstate(all="raise"):
         pipeline = Pipeline.from_config(scenario.stages, ctx, plant.actuators)
     output = getattr(pipeline.allocator, "output", None)
@@ -104,10 +104,11 @@ def _refused_as(field: str):
         raise InputError(field, f"its parameters cannot be built: {type(exc).__name__}: {exc}") from None
 
 
-def stage_context(scenario, inertia, description=None) -> StageContext:
+def stage_context(scenario, inertia, description=None, internal_momentum=None) -> StageContext:
     """What the stages of `scenario` may know at construction (testbed.pipeline.StageContext)."""
     sim = scenario.sim
     return StageContext(dt=sim.dt_s, control_period=sim.control_period_s, inertia=inertia,
+                        internal_momentum=np.zeros(3) if internal_momentum is None else internal_momentum,
                         description=description, system=scenario.system, model=scenario.model,
                         free_flying=systems_registry.is_free_flying(scenario),
                         initial=scenario.initial, integrator=sim.integrator,

@@ -55,9 +55,8 @@ def test_internal_momentum_keeps_the_total_and_refuses_other_stages():
     sensor, est, law = (scenario.stages[slot][1] for slot in ("sensor", "estimator", "law"))
     obs = LebedevEstimator.build_observer(est, plant.locked_inertia(), law.omega_ref, sensor.axis)
     times = np.linspace(0.0, 500.0, 1001)
-    states = closed_loop_states(obs.inertia, law.omega_ref, obs.C, obs.l, obs.closed_gain, law.gains_per_s,
-                                est.startup_s, plant.omega(), plant.internal_momentum_body(), times,
-                                internal=True)
+    states = closed_loop_states(obs, law.gains_per_s, est.startup_s, plant.omega(), plant.internal_momentum_body(),
+                                times, internal=True)
     assert np.array_equal(evaluate(times, None), states[:, :3])
     total = obs.inertia * states[:, :3] + states[:, 6:]
     stored = np.linalg.norm(states[-1, 6:])

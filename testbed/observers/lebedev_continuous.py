@@ -13,18 +13,17 @@ estimate of x = w - (0, 0, Omega), eq. 4.1) and the momentum H an internal actua
   estimate delivers H' = -(M + w_hat x H) (SEEDS §004 eq. 14), so the bus feels
   I w' = M - w x I w + (w_hat - w) x H (README "One gyro, no attitude sensor").
 
-y = p . w + b is the ideal gyro (plus a constant bias b), taken continuously. The closed-loop
-gain l_c may follow the operating point: `closed_gain(H)` is called with the momentum held.
+y = p . w + b is the ideal gyro (plus a constant bias b), taken continuously. The observer's
+gains may follow the momentum held (`momentum_gain: measured`): its `startup_model(H)` and
+`closed_gain(H)` are called with the H of the state.
 """
 
 from __future__ import annotations
 
-from typing import Callable
-
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from testbed.observers.lebedev_observer import lebedev_matrices, lebedev_nonlinearity
+from testbed.observers.lebedev_observer import lebedev_nonlinearity
 
 def _cross(a, b):
     """a x b of two 3-vectors (np.cross costs several times more on vectors this small)."""
@@ -35,30 +34,29 @@ RTOL = 1e-11          # DOP853's relative tolerance (the accuracy the issue's fi
 ATOL_RAD_S = 1e-15    # absolute tolerance on rates; momenta are scaled by I Omega (below)
 
 
-def closed_loop_states(inertia, spin_rate: float, sensor_axis, open_gain, closed_gain: Callable,
-                      gains, startup_s: float, omega0, momentum0, times, *, internal: bool,
-                      bias: float = 0.0) -> np.ndarray:
+def closed_loop_states(observer, gains, startup_s: float, omega0, momentum0, times, *, internal: bool,
+                       bias: float = 0.0) -> np.ndarray:
     """The continuous closed loop's state at `times` (N,) -> (N, 9): columns w [rad/s], z
     [rad/s] and H [N m s], body axes.
 
-    `inertia` principal moments (Ix, Iy, Iz) [kg m^2]; `open_gain` l of the start-up observer
-    (eq. 3.1); `closed_gain(H)` l_c of eq. 4.6 for the momentum H held in body axes; `gains`
+    `observer`: the LebedevObserver whose design is solved (inertia, Omega, C; the start-up
+    model `startup_model(H)` and the gain `closed_gain(H)` for the momentum H held); `gains`
     k of eq. 4.7 [1/s]; `internal`: torques come from an internal actuator holding H (else
     ideal external torques, H = 0). Solved with DOP853 in two legs split at t*.
     """
-    inertia = np.asarray(inertia, float)
-    a, A = lebedev_matrices(inertia, spin_rate)
-    C = np.asarray(sensor_axis, float)
+    inertia = observer.inertia
+    spin_rate, C, a, A = observer.spin_rate, observer.C, observer.a, observer.A
     k = np.asarray(gains, float)
-    l_open = np.asarray(open_gain, float)
     target = np.array([0.0, 0.0, spin_rate])
     y_offset = C[2] * spin_rate - bias            # y - C x - b = gamma Omega (eq. 4.3)
     scale = np.concatenate([np.full(6, 1.0), np.full(3, np.max(inertia) * max(abs(spin_rate), 1e-300))])
+    held = np.asarray(momentum0, float) if internal else None
+    startup_matrix, drift, startup_gain = observer.startup_model(held)   # the idle actuators hold H(0)
 
     def open_loop(_, s):
         w, z, h = s[:3], s[3:6], s[6:]
         dw = -_cross(w, inertia * w + h) / inertia
-        dz = A @ z + l_open * (C @ w - y_offset - C @ z)
+        dz = startup_matrix @ z + drift + startup_gain * (C @ w - y_offset - C @ z)
         return np.concatenate([dw, dz, np.zeros(3)])
 
     def closed_loop(_, s):
@@ -69,10 +67,12 @@ def closed_loop_states(inertia, spin_rate: float, sensor_axis, open_gain, closed
             w_hat = z + target
             dh = -(torque + _cross(w_hat, h))
             dw = (torque - _cross(w, inertia * w) + _cross(w_hat - w, h)) / inertia
+            gain = observer.closed_gain(h)
         else:
             dh = np.zeros(3)
             dw = (torque - _cross(w, inertia * w)) / inertia
-        dz = A @ z + closed_gain(h) * (C @ w - y_offset - C @ z) + lebedev_nonlinearity(a, z) + u
+            gain = observer.closed_gain()
+        dz = A @ z + gain * (C @ w - y_offset - C @ z) + lebedev_nonlinearity(a, z) + u
         return np.concatenate([dw, dz, dh])
 
     times = np.asarray(times, float)

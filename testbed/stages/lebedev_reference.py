@@ -40,8 +40,7 @@ def _lebedev_continuous(plant, params, scenario):
     omega0, momentum0 = plant.omega().copy(), plant.internal_momentum_body().copy()
 
     def evaluate(times, recorder):
-        return closed_loop_states(observer.inertia, law.omega_ref, observer.C, observer.l, observer.closed_gain,
-                                 law.gains_per_s, observer_params.startup_s, omega0, momentum0,
-                                 times - times[0], internal=internal, bias=sensor.bias_rad_s)[:, :3]
+        return closed_loop_states(observer, law.gains_per_s, observer_params.startup_s, omega0, momentum0,
+                                  times - times[0], internal=internal, bias=sensor.bias_rad_s)[:, :3]
 
     return evaluate

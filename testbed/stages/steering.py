@@ -5,7 +5,8 @@ h J(b) b' = H' (eq. 17); J, h and H are read from the compiled model (ClusterGeo
 the measured gimbal angles and rotor speeds. Each law of testbed.steering is a stage type:
 `pinv`, `sr`, `gsr`, `minimax_lp`, `minimax`. When the best achievable max |b'_i| exceeds
 b'max the demand is scaled down, keeping its direction; `scale` records the factor and
-`torque_delivered` the torque the command produces on the bus.
+`torque_delivered` the torque the command produces on the bus, `momentum` the H it was computed
+with (what the encoders and tachometers say the cluster holds).
 
 Near-singular default: singular values of J below STAGE_RCOND = 1e-2 of the largest count as
 zero (the library's own default is 1e-9). Then the demand component along the nearly singular
@@ -42,7 +43,8 @@ class SteeringAllocator:
 
     @classmethod
     def design(cls, params) -> dict:
-        return {"delivered_torque": "torque_delivered"}  # the command key of the torque produced
+        # the command keys of the torque produced and of the momentum H the cluster holds
+        return {"delivered_torque": "torque_delivered", "internal_momentum": "momentum"}
 
     def __init__(self, params: SteeringParams, ctx):
         if not hasattr(ctx.description, "unit_jacobian"):
@@ -98,6 +100,7 @@ class SteeringAllocator:
         self._count(result)
         return {"gimbal_rates": result.beta_rate,
                 "torque_delivered": -result.hdot_delivered - gyroscopic,
+                "momentum": momentum,
                 "scale": np.array([result.scale]),
                 "singularity": np.array([result.singularity_measure]),
                 "rank": np.array([float(result.rank)])}
