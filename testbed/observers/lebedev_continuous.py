@@ -15,7 +15,7 @@ estimate of x = w - (0, 0, Omega), eq. 4.1) and the momentum H an internal actua
 
 y = p . w + b is the ideal gyro (plus a constant bias b), taken continuously. The observer's
 gains may follow the momentum held (`momentum_gain: measured`): its `startup_model(H)` and
-`closed_gain(H)` are called with the H of the state.
+`closed_gain(H, z)` are called with the H and z of the state.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from testbed.errors import InputError
 from testbed.observers.lebedev_observer import lebedev_nonlinearity
 
 def _cross(a, b):
@@ -40,7 +41,7 @@ def closed_loop_states(observer, gains, startup_s: float, omega0, momentum0, tim
     [rad/s] and H [N m s], body axes.
 
     `observer`: the LebedevObserver whose design is solved (inertia, Omega, C; the start-up
-    model `startup_model(H)` and the gain `closed_gain(H)` for the momentum H held); `gains`
+    model `startup_model(H)` and the gain `closed_gain(H, z)` for the momentum H held); `gains`
     k of eq. 4.7 [1/s]; `internal`: torques come from an internal actuator holding H (else
     ideal external torques, H = 0). Solved with DOP853 in two legs split at t*.
     """
@@ -59,7 +60,7 @@ def closed_loop_states(observer, gains, startup_s: float, omega0, momentum0, tim
         dz = startup_matrix @ z + drift + startup_gain * (C @ w - y_offset - C @ z)
         return np.concatenate([dw, dz, np.zeros(3)])
 
-    def closed_loop(_, s):
+    def closed_loop(t, s):
         w, z, h = s[:3], s[3:6], s[6:]
         u = k * z                                  # M / I, eq. 4.7
         torque = inertia * u
@@ -67,7 +68,11 @@ def closed_loop_states(observer, gains, startup_s: float, omega0, momentum0, tim
             w_hat = z + target
             dh = -(torque + _cross(w_hat, h))
             dw = (torque - _cross(w, inertia * w) + _cross(w_hat - w, h)) / inertia
-            gain = observer.closed_gain(h)
+            try:
+                gain = observer.closed_gain(h, z)
+            except InputError as exc:   # the operating point crossed an unobservable state
+                raise ArithmeticError(f"the continuous loop loses observability at t = {t:.6g} s: "
+                                      f"{exc.reason}") from None
         else:
             dh = np.zeros(3)
             dw = (torque - _cross(w, inertia * w)) / inertia

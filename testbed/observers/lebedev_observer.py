@@ -236,11 +236,15 @@ class LebedevObserver:
         [N m s, body axes]; InputError("sensor.axis", ...) when that pair is unobservable."""
         return ackermann_gain(gyrostat_error_matrix(self.inertia, self.spin_rate, momentum), self.C, self.poles)
 
-    def closed_gain(self, momentum=None):
+    def closed_gain(self, momentum=None, z=None):
         """The gain l_c of the closed-loop observer (eq. 4.6): fixed, or, with measured momentum,
-        re-placed for the momentum H the actuators hold now [N m s]."""
+        re-placed for the momentum the actuators will hold at the wanted spin, H + I z [N m s]:
+        the H they hold now plus the estimated deviation x = z the law still has to remove
+        (total momentum I w + H is conserved, so at w = (0, 0, Omega) they hold H + I x). It is
+        the operating point of the final spin, whose transverse part turns with the body when
+        the total momentum is not along z (README "Non-zero total momentum")."""
         if self.measured_momentum and momentum is not None:
-            return self.gain_for(momentum)
+            return self.gain_for(np.asarray(momentum, float) + self.inertia * (self.z if z is None else z))
         return self.l_closed
 
     def startup_model(self, momentum=None):
