@@ -3,9 +3,13 @@
 The cluster must deliver H' = -(M + w x H) (SEEDS §004 eq. 14, 16, body frame) through
 h J(b) b' = H' (eq. 17); J, h and H are read from the compiled model (ClusterGeometry) at
 the measured gimbal angles and rotor speeds. Each law of testbed.steering is a stage type:
-`pinv`, `sr`, `gsr`, `minimax_lp`, `minimax`. When the best achievable max |b'_i| exceeds
-b'max the demand is scaled down, keeping its direction; `scale` records the factor and
-`torque_delivered` the torque the command produces on the bus.
+`pinv`, `sr`, `gsr`, `minimax_lp`, `minimax`, `minimax_avoid`. When the best achievable
+max |b'_i| exceeds b'max the demand is scaled down, keeping its direction; `scale` records the
+factor, `torque_delivered` the torque the command produces on the bus and `status` the law's
+status flags as the sum of their codes (testbed.steering.result.STATUS_CODES: 1 rate_limited,
+2 rank_deficient, 4 lp_failed, 8 avoidance_limited; 0 ok). What a law needs at each step beyond
+J, h and H' (testbed.steering.STEP_INPUTS) comes from the clock and the cluster description:
+`t` (gsr) and dJ_i/dbeta_i (minimax_avoid, `unit_jacobian_derivative` of the description).
 
 Near-singular default: singular values of J below STAGE_RCOND = 1e-2 of the largest count as
 zero (the library's own default is 1e-9). Then the demand component along the nearly singular
@@ -25,7 +29,8 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.pipeline import stage
 from testbed.schema import param
-from testbed.steering import LAW_OPTIONS, STEERING_LAWS
+from testbed.steering import LAW_OPTIONS, STEERING_LAWS, STEP_INPUTS
+from testbed.steering.result import status_code
 
 STAGE_RCOND = 1e-2  # relative singular-value cut for the stage (see module doc)
 
@@ -48,11 +53,15 @@ class SteeringAllocator:
         if not hasattr(ctx.description, "unit_jacobian"):
             raise InputError("pipeline.allocator.type", f"{self.law_name} steering needs a system with a "
                              "gimbal cluster (its plant describes H(beta) and dH/dbeta)")
+        user_options = [name for name in LAW_OPTIONS[self.law_name] if name not in STEP_INPUTS]
         for option in params.options:
-            if option not in LAW_OPTIONS[self.law_name]:
-                allowed = ", ".join(LAW_OPTIONS[self.law_name]) or "none"
+            if option not in user_options:
                 raise InputError(f"pipeline.allocator.options.{option}",
-                                 f"not an option of {self.law_name} (options: {allowed})")
+                                 f"not an option of {self.law_name} (options: {', '.join(user_options) or 'none'})")
+        self.step_inputs = STEP_INPUTS.intersection(LAW_OPTIONS[self.law_name])
+        if "column_derivative" in self.step_inputs and not hasattr(ctx.description, "unit_jacobian_derivative"):
+            raise InputError("pipeline.allocator.type", f"{self.law_name} steering needs a cluster description "
+                             "with dJ_i/dbeta_i (unit_jacobian_derivative)")
         self.geometry = ctx.description
         self.law = STEERING_LAWS[self.law_name]
         self.rate_max = np.radians(params.beta_rate_max_deg_s)
@@ -61,11 +70,21 @@ class SteeringAllocator:
         self._check_options()
         self.reset_statistics()
 
+    def _inputs(self, t: float, beta: np.ndarray) -> dict:
+        """The step inputs (STEP_INPUTS) this law takes, at time t and gimbal angles beta."""
+        inputs = {}
+        if "t" in self.step_inputs:
+            inputs["t"] = t
+        if "column_derivative" in self.step_inputs:
+            inputs["column_derivative"] = self.geometry.unit_jacobian_derivative(beta)
+        return inputs
+
     def _check_options(self) -> None:
         """Call the law once with a zero demand so a bad option value is refused before the run."""
+        beta = np.zeros(len(self.geometry.gimbal_axes))
         try:
-            self.law(self.geometry.unit_jacobian(np.zeros(4)), self.geometry.h, np.zeros(3), self.rate_max,
-                     **self.options)
+            self.law(self.geometry.unit_jacobian(beta), self.geometry.h, np.zeros(3), self.rate_max,
+                     **self.options, **self._inputs(0.0, beta))
         except InputError as exc:
             option = exc.field.removeprefix("steering.")
             raise InputError(f"pipeline.allocator.options.{option}", exc.reason) from None
@@ -91,16 +110,15 @@ class SteeringAllocator:
         momentum = self.geometry.momentum(beta, rotor)
         gyroscopic = np.cross(omega, momentum)
         hdot = -(torque + gyroscopic)
-        options = dict(self.options)
-        if self.law_name == "gsr":
-            options["t"] = t
-        result = self.law(self.geometry.unit_jacobian(beta), self.geometry.h, hdot, self.rate_max, **options)
+        result = self.law(self.geometry.unit_jacobian(beta), self.geometry.h, hdot, self.rate_max,
+                          **self.options, **self._inputs(t, beta))
         self._count(result)
         return {"gimbal_rates": result.beta_rate,
                 "torque_delivered": -result.hdot_delivered - gyroscopic,
                 "scale": np.array([result.scale]),
                 "singularity": np.array([result.singularity_measure]),
-                "rank": np.array([float(result.rank)])}
+                "rank": np.array([float(result.rank)]),
+                "status": np.array([float(status_code(result.status))])}
 
 
 def _register(name: str) -> None:

@@ -46,7 +46,13 @@ _PAIRS = ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))
 
 
 def minimize_max_abs_on_line(x, n) -> list[float]:
-    """argmin over beta = x + t n of max_i |beta_i| (4 floats each, n != 0), in closed form.
+    """argmin over beta = x + t n of max_i |beta_i| (4 floats each, n != 0), in closed form."""
+    t = minimax_line_parameter(x, n)
+    return [x[0] + t * n[0], x[1] + t * n[1], x[2] + t * n[2], x[3] + t * n[3]]
+
+
+def minimax_line_parameter(x, n) -> float:
+    """The t minimising max_i |x_i + t n_i| (4 floats each, n != 0), in closed form.
 
     v_ji = -v_ij and t_ij = t_ji, so the 12 ordered crossings reduce to the 6 pairs' |v_ij|.
     """
@@ -62,8 +68,7 @@ def minimize_max_abs_on_line(x, n) -> list[float]:
             v = abs(wj * a[i] - wi * a[j]) / den
             if v > best_v:
                 best_v, best_t = v, -(a[i] + a[j]) / den
-    t = best_t
-    return [x[0] + t * n[0], x[1] + t * n[1], x[2] + t * n[2], x[3] + t * n[3]]
+    return best_t
 
 
 def cofactor_null_vector(rows) -> list[float]:

@@ -94,6 +94,11 @@ class ClusterGeometry:
         beta = np.asarray(beta, dtype=float)[:, None]
         return (-np.sin(beta) * self.spin_axes_zero + np.cos(beta) * self.turn_axes).T
 
+    def unit_jacobian_derivative(self, beta):
+        """dJ_i/dbeta_i of the unit Jacobian, (3, 4): column i = -(cos b_i e_i + sin b_i s_i z),
+        the negative unit spin axis (eq. (18) differentiated; column i of J depends on b_i only)."""
+        return -self.spin_axes(beta).T
+
     def jacobian(self, beta):
         """dH/dbeta at the nominal rotor momenta [N m s / rad], (3, 4): h_i times unit column."""
         return self.unit_jacobian(beta) * self.rotor_momentum
