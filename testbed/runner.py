@@ -77,7 +77,7 @@ def prepare(scenario):
     plant = systems_registry.make_plant(scenario)
     plant.record_energy = scenario.stages["allocator"][0] == "none"
     plant.initialise(scenario.initial)
-    ctx = stage_context(scenario, plant.locked_inertia(), plant.description())
+    ctx = stage_context(scenario, plant.locked_inertia(), plant.description(), plant.actuator_state())
     pipeline = Pipeline.from_config(scenario.stages, ctx, plant.actuators)
     output = getattr(pipeline.allocator, "output", None)
     if output is not None and output not in plant.actuators:
@@ -87,15 +87,16 @@ def prepare(scenario):
     return plant, pipeline, reference
 
 
-def stage_context(scenario, inertia, description=None) -> StageContext:
-    """What the stages of `scenario` may know at construction (testbed.pipeline.StageContext)."""
+def stage_context(scenario, inertia, description=None, actuators=None) -> StageContext:
+    """What the stages of `scenario` may know at construction (testbed.pipeline.StageContext);
+    `actuators`: the plant's actuator read-outs at t = 0."""
     sim = scenario.sim
     return StageContext(dt=sim.dt_s, control_period=sim.control_period_s, inertia=inertia,
                         description=description, system=scenario.system, model=scenario.model,
                         free_flying=systems_registry.is_free_flying(scenario),
                         initial=scenario.initial, integrator=sim.integrator,
                         end_time=round(sim.duration_s / sim.control_period_s) * sim.control_period_s,
-                        stages=stage_infos(scenario.stages))
+                        stages=stage_infos(scenario.stages), actuators=dict(actuators or {}))
 
 
 def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = False) -> RunResult:

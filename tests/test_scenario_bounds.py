@@ -118,6 +118,16 @@ PINNED = {
         "momentum_drift_rel": {"max": 1e-9},
         "peak_gimbal_rate_deg_s": {"max": 5.5},
     },
+    "reorient_gimbal_limits": {
+        "rate_limit_violations": {"max": 0},
+        "gimbal_acceleration_violations": {"max": 0},
+        "gimbal_angle_limit_violations": {"max": 0},
+        "peak_gimbal_acceleration_deg_s2": {"max": 200.000001},
+        "min_gimbal_angle_margin_deg": {"min": -0.001},
+        "final_attitude_error_deg": {"max": 0.01},
+        "min_singularity_measure": {"min": 0.05},
+        "torque_error_rel": {"max": 0.05},
+    },
     "reorient_minimax_avoid": {
         "final_attitude_error_deg": {"max": 0.01},
         "max_tracking_error_deg": {"max": 0.05},

@@ -37,8 +37,13 @@ singularity measure m = sqrt(det(J J^T)) away from zero. With b = H'/h (eq. 17):
        T and A meet:          t = clip(t*, T n A)         min-max under the barrier, exact torque
        T and A do not meet:   t = the end of T nearest A   the largest dm/dt the bounds allow,
                                                            exact torque, status avoidance_limited
-       T empty:               no exact solution within the bounds: the min-max rates x + t* v_4
-                              are limited like every law's (rate_limit.py), status rate_limited.
+       T empty:               no exact command within the bounds: the largest fraction k of the
+                              demand that has one, from the LP  max k  s.t.  lo <= k x + t v_4 <= hi,
+                              0 <= k <= 1  (scipy HiGHS; its t is then the min-max one at that k),
+                              status rate_limited, scale k. The direction of H' is kept. Only when
+                              not even k = 0 fits (an acceleration limit keeps a gimbal turning
+                              and v_4 cannot absorb it) are the min-max rates limited like every
+                              law's (rate_limit.apply_rate_bounds).
 
    The avoidance itself never costs torque: it only moves along v_4. Far from singular sets
    (A contains t*) the command is exactly the min-max one.
@@ -56,12 +61,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.optimize import linprog
 
 from testbed.errors import InputError
 from testbed.math.validation import number_in, positive_number
 from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
 from testbed.steering.minimax_exact import minimax_line_parameter
-from testbed.steering.minimax_lp import nullspace_lp_rates
+from testbed.steering.minimax_lp import HIGHS_OPTIONS, nullspace_lp_rates
 from testbed.steering.result import SteeringResult, limited_result, status_string
 from testbed.steering.validation import checked_problem, checked_rate_bounds
 
@@ -87,6 +93,22 @@ def line_interval(x: np.ndarray, n: np.ndarray, lo: np.ndarray, hi: np.ndarray) 
         p, q = (a - xi) / ni, (b - xi) / ni
         t_lo, t_hi = max(t_lo, min(p, q)), min(t_hi, max(p, q))
     return t_lo, t_hi
+
+
+def largest_exact_fraction(x: np.ndarray, n: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[float, float] | None:
+    """(k, t) with the largest k in [0, 1] such that lo <= k x + t n <= hi, t the min-max one at
+    that k; None when no k in [0, 1] has such a t (the LP in (k, t) of the module doc, step 4)."""
+    a_ub = np.vstack([np.column_stack([x, n]), -np.column_stack([x, n])])
+    res = linprog([-1.0, 0.0], A_ub=a_ub, b_ub=np.r_[hi, -lo], bounds=[(0.0, 1.0), (None, None)],
+                  method="highs", options=HIGHS_OPTIONS)
+    if res.status != 0:
+        return None
+    k = float(res.x[0]) + 0.0  # -0.0 reads as 0
+    t_lo, t_hi = line_interval(k * x, n, lo, hi)
+    t = float(res.x[1])
+    if t_lo <= t_hi:  # the LP's t is one feasible point; the interval is usually that point
+        t = min(max(minimax_line_parameter((k * x).tolist(), n.tolist()), t_lo), t_hi)
+    return k, t
 
 
 def barrier_choice(t_star: float, t_lo: float, t_hi: float, slope: float, offset: float) -> tuple[float, bool]:
@@ -137,8 +159,13 @@ def minimax_avoid_steering(J, h, Hdot, beta_rate_max, *, column_derivative=None,
     x, n = min_norm_solution(svd, b), svd.null_space[0]
     t_star = minimax_line_parameter(x.tolist(), n.tolist())
     t_lo, t_hi = line_interval(x, n, lo, hi)
-    if t_lo > t_hi:  # no exact-torque command within the bounds: scale like the others
-        return limited_result(J, h, x + t_star * n, beta_rate_max, svd.measure, svd.rank, bounds=(lo, hi))
+    if t_lo > t_hi:  # no exact-torque command within the bounds: the largest fraction of H' that has one
+        fraction = largest_exact_fraction(x, n, lo, hi)
+        if fraction is None:
+            return limited_result(J, h, x + t_star * n, beta_rate_max, svd.measure, svd.rank, bounds=(lo, hi))
+        k, t = fraction
+        beta_rate = np.clip(k * x + t * n, lo, hi)
+        return SteeringResult(beta_rate, h * (J @ beta_rate), k, svd.measure, svd.rank, status_string(True))
     g = measure_gradient(svd, derivative)
     offset = -gain * (svd.measure - floor) - float(g @ x)
     slope = float(g @ n)

@@ -34,9 +34,9 @@ import numpy as np
 
 from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
 from testbed.steering.minimax_lp import nullspace_lp_rates
-from testbed.steering.result import SteeringResult, status_string
+from testbed.steering.result import SteeringResult, limited_result, status_string
 from testbed.math.validation import number_in
-from testbed.steering.validation import checked_problem
+from testbed.steering.validation import checked_problem, checked_rate_bounds
 
 # Below |n| = NEAR_SINGULAR * |J|_F^3 the cofactor formulas lose > ~1e-12 relative accuracy.
 NEAR_SINGULAR = 1e-4
@@ -100,11 +100,13 @@ def particular_solution(rows, b, n) -> list[float]:
     return x
 
 
-def minimax_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND) -> SteeringResult:
+def minimax_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND, rate_bounds=None) -> SteeringResult:
     """Min-max gimbal rates (eq. 21 subject to 17), exactly and in microseconds, rate-limited.
 
     Same optimum as minimax_lp_steering (tested to 1e-9 relative); the rate limit scales the
     demand by k = beta_rate_max / min-max value, exact since the optimum is linear in H'.
+    rate_bounds: optional per-gimbal (lo, hi), applied to the min-max rates like every law's
+    (rate_limit.apply_rate_bounds; minimax_avoid uses the null space to meet them instead).
     """
     rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
     if rcond != DEFAULT_RCOND:  # skip the check on the hot path's default
@@ -128,6 +130,10 @@ def minimax_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND)
             lp = nullspace_lp_rates(p, svd.null_space)
             lp_failed = lp is None
             beta = (p if lp_failed else lp).tolist()
+    if rate_bounds is not None:
+        bounds = checked_rate_bounds(rate_bounds, beta_rate_max)
+        return limited_result(np.array(rows), h, np.array(beta), beta_rate_max, measure, rank, lp_failed,
+                              bounds=bounds)
     # Rate limit (eq. 4): the min-max optimum scales linearly with the demand.
     peak = max(abs(beta[0]), abs(beta[1]), abs(beta[2]), abs(beta[3]))
     scale = 1.0

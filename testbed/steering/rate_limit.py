@@ -46,4 +46,5 @@ def apply_rate_bounds(beta_rate: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> 
             k = min(k, (low - start) / (rate - start))
     if k == 1.0:
         return beta_rate, 1.0
+    k += 0.0  # -0.0 (an end of the box at p itself) reads as 0
     return np.clip(p + k * step, lo, hi), k
