@@ -60,28 +60,20 @@ def rate_limit_violations(run) -> float:
     return float(run.statistics["allocator"]["rate_limit_violations"])
 
 
-def _limited(scenario) -> bool:
-    """A steering allocator with gimbal-angle or gimbal-acceleration limits."""
-    if not _steered(scenario):
-        return False
-    params = scenario.stages["allocator"][1]
-    return params.gimbal_angle_limits_deg is not None or params.gimbal_acceleration_max_deg_s2 is not None
-
-
-@metric("peak_gimbal_acceleration_deg_s2", applies=_limited)
+@metric("peak_gimbal_acceleration_deg_s2", applies=_steered)
 def peak_gimbal_acceleration_deg_s2(run) -> float:
     """max over every control step and gimbal of |b'_k - b'_(k-1)| / Tc, the commanded acceleration
     (the gimbals start at rest) [deg/s^2]; the servos' own transient within a period is faster."""
     return float(np.degrees(run.statistics["allocator"]["peak_gimbal_acceleration"]))
 
 
-@metric("gimbal_acceleration_violations", applies=_limited)
+@metric("gimbal_acceleration_violations", applies=_steered)
 def gimbal_acceleration_violations(run) -> float:
     """Count of commanded |b'_k - b'_(k-1)| > a_max Tc over every control step and gimbal (0 without a limit; must be 0)."""
     return float(run.statistics["allocator"]["acceleration_violations"])
 
 
-@metric("gimbal_angle_limit_violations", applies=_limited)
+@metric("gimbal_angle_limit_violations", applies=_steered)
 def gimbal_angle_limit_violations(run) -> float:
     """Count of commanded gimbal angles (the servos' set-points) outside their [min, max] over every control step and gimbal (0 without limits; must be 0)."""
     return float(run.statistics["allocator"]["angle_limit_violations"])
