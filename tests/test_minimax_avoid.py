@@ -38,6 +38,20 @@ def random_case(rng):
     return beta, alpha, h, hdot, rng.uniform(0.2, 1.0), rng.uniform(0.2, 1.5), rng.uniform(0.1, 3.0)
 
 
+def random_cases(rng, count, min_measure=1e-3):
+    """random_case draws at least min_measure from a singular set (count draws, some skipped)."""
+    for _ in range(count):
+        case = random_case(rng)
+        if measure(case[0], case[1]) >= min_measure:
+            yield case
+
+
+def avoid(beta, alpha, h, hdot, limit, **options):
+    """minimax_avoid_steering at gimbal angles beta, with the reference's dJ_i/dbeta_i."""
+    return minimax_avoid_steering(rhombus_jacobian(beta, alpha), h, hdot, limit,
+                                  column_derivative=rhombus_column_derivative(beta, alpha), **options)
+
+
 def lp_with_barrier(J, b, g, c, limit):
     """min s over (beta', s): J beta' = b, |beta'_i| <= s, |beta'_i| <= limit, g . beta' >= c."""
     a_ub = np.block([[np.eye(4), -np.ones((4, 1))], [-np.eye(4), -np.ones((4, 1))],
@@ -71,16 +85,11 @@ def test_gradient_of_the_measure_matches_finite_differences():
 def test_equals_scipy_lp_with_the_same_linearised_barrier_on_random_problems():
     rng = np.random.default_rng(21)
     seen = {"inactive": 0, "active": 0, "avoidance_limited": 0, "rate_limited": 0}
-    for _ in range(600):
-        beta, alpha, h, hdot, limit, floor, gain = random_case(rng)
-        m = measure(beta, alpha)
-        if m < 1e-3:
-            continue
+    for beta, alpha, h, hdot, limit, floor, gain in random_cases(rng, 600):
         J, b = rhombus_jacobian(beta, alpha), hdot / h
         g = numeric_gradient(beta, alpha)
-        c = -gain * (m - floor)
-        result = minimax_avoid_steering(J, h, hdot, limit, column_derivative=rhombus_column_derivative(beta, alpha),
-                                        measure_floor=floor, barrier_gain_per_s=gain)
+        c = -gain * (measure(beta, alpha) - floor)
+        result = avoid(beta, alpha, h, hdot, limit, measure_floor=floor, barrier_gain_per_s=gain)
         peak = np.abs(result.beta_rate).max()
         lp = lp_with_barrier(J, b, g, c, limit)
         if lp.status == 0:  # the barrier can be met within the limit: the same min-max value
@@ -107,13 +116,9 @@ def test_equals_scipy_lp_with_the_same_linearised_barrier_on_random_problems():
 def test_torque_exact_to_round_off_and_avoidance_only_along_the_null_space():
     rng = np.random.default_rng(22)
     checked = 0
-    for _ in range(400):
-        beta, alpha, h, hdot, limit, floor, gain = random_case(rng)
+    for beta, alpha, h, hdot, limit, floor, gain in random_cases(rng, 400):
         J = rhombus_jacobian(beta, alpha)
-        if measure(beta, alpha) < 1e-3:
-            continue
-        result = minimax_avoid_steering(J, h, hdot, limit, column_derivative=rhombus_column_derivative(beta, alpha),
-                                        measure_floor=floor, barrier_gain_per_s=gain)
+        result = avoid(beta, alpha, h, hdot, limit, measure_floor=floor, barrier_gain_per_s=gain)
         if "rate_limited" in result.status:
             continue
         np.testing.assert_allclose(h * J @ result.beta_rate, hdot, atol=1e-12 * h * (1 + np.abs(result.beta_rate).max()))
@@ -129,30 +134,21 @@ def test_torque_exact_to_round_off_and_avoidance_only_along_the_null_space():
 def test_far_from_singular_sets_it_is_the_min_max_law():
     """floor 0 and m ~ 1: the barrier's right side is far below any reachable dm/dt."""
     rng = np.random.default_rng(23)
-    for _ in range(200):
-        beta, alpha, h, hdot, *_ = random_case(rng)
-        if measure(beta, alpha) < 0.5:
-            continue
-        J = rhombus_jacobian(beta, alpha)
-        avoid = minimax_avoid_steering(J, h, hdot, np.inf, column_derivative=rhombus_column_derivative(beta, alpha),
-                                       measure_floor=0.0, barrier_gain_per_s=1e6)
-        plain = minimax_steering(J, h, hdot, np.inf)
-        np.testing.assert_allclose(avoid.beta_rate, plain.beta_rate, rtol=1e-9, atol=1e-12 * np.abs(plain.beta_rate).max())
+    for beta, alpha, h, hdot, *_ in random_cases(rng, 200, min_measure=0.5):
+        barrier = avoid(beta, alpha, h, hdot, np.inf, measure_floor=0.0, barrier_gain_per_s=1e6)
+        plain = minimax_steering(rhombus_jacobian(beta, alpha), h, hdot, np.inf)
+        np.testing.assert_allclose(barrier.beta_rate, plain.beta_rate, rtol=1e-9, atol=1e-12 * np.abs(plain.beta_rate).max())
 
 
 def test_rate_bounds_are_met_with_exact_torque_when_the_null_space_allows():
     """Asymmetric per-gimbal bounds: when the LP finds an exact command inside them, so does the law."""
     rng = np.random.default_rng(24)
     exact = 0
-    for _ in range(300):
-        beta, alpha, h, hdot, limit, floor, gain = random_case(rng)
+    for beta, alpha, h, hdot, limit, *_ in random_cases(rng, 300):
         J = rhombus_jacobian(beta, alpha)
-        if measure(beta, alpha) < 1e-3:
-            continue
         lo = -limit * rng.uniform(0.1, 1.0, 4)
         hi = limit * rng.uniform(0.1, 1.0, 4)
-        result = minimax_avoid_steering(J, h, hdot, limit, column_derivative=rhombus_column_derivative(beta, alpha),
-                                        measure_floor=0.0, barrier_gain_per_s=1e-9, rate_bounds=(lo, hi))
+        result = avoid(beta, alpha, h, hdot, limit, measure_floor=0.0, barrier_gain_per_s=1e-9, rate_bounds=(lo, hi))
         assert np.all(result.beta_rate >= lo) and np.all(result.beta_rate <= hi)
         feasible = linprog(np.zeros(4), A_eq=J, b_eq=hdot / h, bounds=list(zip(lo, hi)), method="highs",
                            options=HIGHS).status == 0
