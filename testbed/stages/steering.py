@@ -21,7 +21,8 @@ control step: commanded angles outside their range and commanded rate changes ab
 a_max Tc (1 + 1e-9, the rounding of the bounds), the peak commanded acceleration, and the
 measured angles' smallest distance to a stop. The measured angle follows the commanded one
 through the servo, whose stiffness gives way to the gyroscopic torque on the gimbal axis: it
-can pass a stop by that compliance (0.005 deg measured at a 30 deg/s slew, README).
+can pass a stop by that compliance (up to 0.006 deg on the 30 deg/s near-singular slew, README
+"Gimbal limits").
 
 Near-singular default: singular values of J below STAGE_RCOND = 1e-2 of the largest count as
 zero (the library's own default is 1e-9). Then the demand component along the nearly singular
@@ -66,7 +67,7 @@ class SteeringParams:
                 raise InputError(field_path, f"min {pair[0]:g} deg must be below max {pair[1]:g} deg")
 
 
-def gimbal_limits(params: SteeringParams, ctx, gimbals: int) -> GimbalLimits | None:
+def configured_limits(params: SteeringParams, ctx, gimbals: int) -> GimbalLimits | None:
     """The limits of `params` for a cluster of `gimbals`, checked against the angles the encoders
     report at t = 0 (ctx.actuators); None when there are none."""
     pairs, acceleration = params.gimbal_angle_limits_deg, params.gimbal_acceleration_max_deg_s2
@@ -113,7 +114,7 @@ class SteeringAllocator:
         self.rate_max = np.radians(params.beta_rate_max_deg_s)
         self.period = ctx.control_period
         gimbals = len(self.geometry.gimbal_axes)
-        self.limits = gimbal_limits(params, ctx, gimbals)
+        self.limits = configured_limits(params, ctx, gimbals)
         self.setpoint = None  # commanded gimbal angles, from the first measurement on
         self.previous = np.zeros(gimbals)  # the gimbals start at rest
         defaults = {"rcond": STAGE_RCOND} if "rcond" in LAW_OPTIONS[self.law_name] else {}
