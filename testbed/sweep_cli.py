@@ -65,9 +65,7 @@ def run(args) -> int:
         except InputError as exc:
             raise InputError(f"sweep case {case.index}", f"({case.label}) {exc.field}: {exc.reason}") from None
     out = Path(args.out) if args.out else Path("runs") / f"{file_stem(name)}_sweep"
-    if out.exists() and not out.is_dir():
-        raise InputError("--out", f"{out} is a file; a sweep writes a folder (its CSV and traces)")
-    output_path(out / f"{file_stem(name)}.csv")
+    output_path(out / f"{file_stem(name)}.csv")  # a sweep writes a folder: refused if a file is in the way
     with progress_bar(f"sweep {name}", len(cases), "cases") as bar:
         bar.disable = bar.disable or args.json
         rows = run_cases(cases, workers, out if args.rrd else None,

@@ -54,6 +54,10 @@ class RandomField:
             raise InputError(schema.join(path, "choice"), "needs at least one value")
         if self.kind != "choice" and values[0] > values[1]:
             raise InputError(schema.join(path, self.kind), f"low {values[0]:g} > high {values[1]:g}")
+        if self.kind != "choice" and not math.isfinite(values[1] - values[0]):
+            raise InputError(schema.join(path, self.kind), "its width high - low overflows: narrow it")
+        if self.kind == "log_uniform" and values[0] <= 0:
+            raise InputError(schema.join(path, self.kind), f"needs low > 0, got {values[0]:g}")
 
     def draw(self, rng: np.random.Generator):
         lo_hi = getattr(self, self.kind)

@@ -136,7 +136,7 @@ PINNED = {
         "min_singularity_measure": {"min": 1.0},
         "torque_error_rel": {"max": 1e-9},
         "momentum_drift_rel": {"max": 1e-9},
-        "peak_gimbal_rate_deg_s": {"max": 4.958},   # 1.02 x reorient_minimax's 4.861
+        "peak_gimbal_rate_deg_s": {"max": 5.033},   # 1.02 x reorient_minimax's 4.935
     },
     "reorient_near_singular": {
         "rate_limit_violations": {"max": 0},
@@ -177,8 +177,8 @@ PINNED = {
 # at 60 s of its 600 s, so a bound on a metric that needs the full run (a final value, or one
 # that is only reached late) may not hold there. Its three bounds are all `max` bounds on
 # quantities that only grow with the duration (largest rate error, momentum drift, largest
-# gimbal-rate tracking error), so at 60 s they must hold too, and they do (measured 1.6e-9 rad/s,
-# 6.8e-13, 1.2e-3): nothing is skipped today. Add (scenario, metric) here, with the reason, for a
+# gimbal-rate tracking error), so at 60 s they must hold too, and they do (measured 5.4e-8 rad/s,
+# 1.6e-10, 2.3e-5): nothing is skipped today. Add (scenario, metric) here, with the reason, for a
 # bound that needs the full duration.
 NOT_MET_BY_SHORTENED_RUN: set[tuple[str, str]] = set()
 
