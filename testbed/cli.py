@@ -126,7 +126,7 @@ def _cmd_list(args) -> int:
         raise InputError("list", f"no scenario files (*.yaml) in {SCENARIO_DIR}")
     for path in paths:
         try:
-            description = str(read_yaml(path).get("description", "")).strip().splitlines()
+            description = str(read_yaml(path).get("description") or "").strip().splitlines()
         except InputError as exc:  # one broken file does not hide the others
             description = [f"(cannot be read: {exc.reason})"]
         print(f"{path.stem:28s} {description[0] if description else ''}")
