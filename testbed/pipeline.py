@@ -49,9 +49,10 @@ class StageContext:
     """What a stage may know at construction: design data, never the running truth."""
 
     dt: float                   # physics step [s]
-    control_period: float       # pipeline sample period [s]
+    control_period: float       # law and allocator period [s]
     inertia: np.ndarray         # spacecraft locked inertia about its CoM, body axes [kg m^2]
     internal_momentum: Any = None  # momentum of the moving parts relative to the bus at t = 0, body axes [N m s]
+    sample_period: float | None = None  # sensor and estimator period [s], a divisor of control_period (None: the same)
     description: Any = None     # the plant's static design data (e.g. an actuator cluster's geometry)
     system: str = ""            # model.system
     free_flying: bool = True    # a free body with three rotational degrees of freedom
@@ -311,6 +312,31 @@ class Pipeline:
             stage_object = getattr(self, slot)
             raise StageFailed(t, slot, getattr(stage_object, "type_name", type(stage_object).__name__),
                               f"{type(exc).__name__}: {exc}") from exc
+
+    def sense(self, t: float, plant) -> None:
+        """Sensor and estimator alone at time t: a sample between two control instants when
+        they run faster than the law (`sim.estimator_period_s`); the command stays held."""
+        slot = "sensor"
+        try:
+            if self._sensing:
+                self.measurement = self.sensor.measure(t, plant)
+                if self._sensor_check is not None:
+                    self._sensor_check(t, self.measurement)
+            slot = "estimator"
+            if self._estimating:
+                self.estimate = self.estimator.estimate(t, self.measurement, self.command)
+                if self._estimator_check is not None:
+                    self._estimator_check(t, self.estimate)
+        except StageFailed:
+            raise
+        except Exception as exc:
+            stage_object = getattr(self, slot)
+            raise StageFailed(t, slot, getattr(stage_object, "type_name", type(stage_object).__name__),
+                              f"{type(exc).__name__}: {exc}") from exc
+
+    def sensed_signals(self) -> dict[str, dict[str, np.ndarray]]:
+        """The sensor's and estimator's last outputs, as the trace records them between control instants."""
+        return {"sensor": self.measurement, "estimator": self.estimate}
 
     def signals(self) -> dict[str, dict[str, np.ndarray]]:
         """The last tick's outputs by slot, as the trace records them."""

@@ -109,7 +109,8 @@ def stage_context(scenario, inertia, description=None, actuators=None, internal_
     """What the stages of `scenario` may know at construction (testbed.pipeline.StageContext);
     `actuators`: the plant's actuator read-outs at t = 0, `internal_momentum` its H(0)."""
     sim = scenario.sim
-    return StageContext(dt=sim.dt_s, control_period=sim.control_period_s, inertia=inertia,
+    return StageContext(dt=sim.dt_s, control_period=sim.control_period_s, sample_period=sim.estimator_period_s,
+                        inertia=inertia,
                         internal_momentum=np.zeros(3) if internal_momentum is None else internal_momentum,
                         description=description, system=scenario.system, model=scenario.model,
                         free_flying=systems_registry.is_free_flying(scenario),
@@ -127,15 +128,20 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     plant, pipeline, reference = prepare(scenario)
     sim = scenario.sim
     n_ticks = round(sim.duration_s / sim.control_period_s)
-    trace_every = round(sim.trace_period_s / sim.control_period_s)
-    recorder = Recorder(-(-n_ticks // trace_every) + 1)  # the samples on the grid and the final state
+    if sim.samples_per_tick == 1:  # one rate: every stage at the control period
+        loop, steps = _loop, n_ticks
+        trace_every = round(sim.trace_period_s / sim.control_period_s)
+    else:                          # sensor and estimator at their own, shorter period
+        loop, steps = _multirate_loop, n_ticks * sim.samples_per_tick
+        trace_every = round(sim.trace_period_s / sim.estimator_period_s)
+    recorder = Recorder(-(-steps // trace_every) + 1)  # the samples on the grid and the final state
     momentum_scale = plant.momentum_scale()
     status, error = "ok", None
     try:
         # a stage whose numbers overflow or turn invalid fails at that tick, named (StageFailed),
         # instead of printing numpy warnings and handing NaN on
         with np.errstate(over="raise", invalid="raise", divide="raise"):
-            _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress)
+            loop(plant, pipeline, recorder, steps, trace_every, sim, progress)
     except SimulationDiverged as exc:
         status, error = "diverged", str(exc)
     except StageFailed as exc:
@@ -188,3 +194,31 @@ def _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress) -> Non
         if progress is not None and k % report_every == 0:
             progress(k / n_ticks)
     recorder.sample(n_ticks * tc, {"truth": plant.truth()})  # the final state, on the trace grid or not
+
+
+def _multirate_loop(plant, pipeline, recorder, n_samples, trace_every, sim, progress) -> None:
+    """Sample j (t = j Ts, Ts = sim.estimator_period_s): the sensor and the estimator, and at
+    every control instant (each `samples_per_tick`-th sample) the whole pipeline, whose command
+    stays held over the control period; Ts / dt physics steps. A trace sample every
+    `trace_every` samples holds the truth and the stages that ran at it: sensor and estimator at
+    their rate, law and allocator only at control instants (each stage at its own rate)."""
+    per_tick = sim.samples_per_tick
+    steps = sim.steps_per_sample
+    ts = sim.estimator_period_s
+    report_every = max(1, n_samples // 200)
+    tick, sense, step = pipeline.tick, pipeline.sense, plant.step
+    for j in range(n_samples):
+        t = j * ts
+        control = j % per_tick == 0
+        if control:
+            tick(t, plant)
+        else:
+            sense(t, plant)
+        if j % trace_every == 0:
+            signals = pipeline.signals() if control else pipeline.sensed_signals()
+            signals["truth"] = plant.truth()
+            recorder.sample(t, signals)
+        step(steps)
+        if progress is not None and j % report_every == 0:
+            progress(j / n_samples)
+    recorder.sample(n_samples * ts, {"truth": plant.truth()})  # the final state, on the trace grid or not

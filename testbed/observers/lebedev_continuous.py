@@ -31,6 +31,9 @@ def _cross(a, b):
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
+# Right-hand-side evaluations allowed for one solution (the paper's 1000 s take 16 000): a stiff
+# design (very fast poles, a huge gain) would otherwise keep DOP853 busy for hours.
+MAX_EVALUATIONS = 100_000
 RTOL = 1e-11          # DOP853's relative tolerance (the accuracy the issue's figures were measured at)
 ATOL_RAD_S = 1e-15    # absolute tolerance on rates; momenta are scaled by I Omega (below)
 
@@ -80,6 +83,17 @@ def closed_loop_states(observer, gains, startup_s: float, omega0, momentum0, tim
         dz = A @ z + gain * (C @ w - y_offset - C @ z) + lebedev_nonlinearity(a, z) + u
         return np.concatenate([dw, dz, dh])
 
+    evaluations = [0]
+
+    def counted(rhs):
+        def f(t, s):
+            evaluations[0] += 1
+            if evaluations[0] > MAX_EVALUATIONS:
+                raise ArithmeticError(f"the continuous loop needs more than {MAX_EVALUATIONS} evaluations "
+                                      f"(stiff at t = {t:.6g} s)")
+            return rhs(t, s)
+        return f
+
     times = np.asarray(times, float)
     state = np.concatenate([np.asarray(omega0, float), np.zeros(3),
                             np.asarray(momentum0, float) if internal else np.zeros(3)])
@@ -89,7 +103,7 @@ def closed_loop_states(observer, gains, startup_s: float, omega0, momentum0, tim
             (min(startup_s, t_end), t_end, closed_loop, times >= startup_s))
     for t0, t1, rhs, mask in legs:
         if t1 > t0:
-            sol = solve_ivp(rhs, (t0, t1), state, method="DOP853", rtol=RTOL, atol=ATOL_RAD_S * scale,
+            sol = solve_ivp(counted(rhs), (t0, t1), state, method="DOP853", rtol=RTOL, atol=ATOL_RAD_S * scale,
                             dense_output=True)
             if not sol.success:
                 raise ArithmeticError(f"the continuous closed loop could not be solved: {sol.message}")

@@ -144,17 +144,20 @@ def observer_gain(inertia, spin_rate, sensor_axis, poles):
     return ackermann_gain(A, sensor_axis, poles)
 
 
-def ackermann_gain(A, sensor_axis, poles):
+def ackermann_gain(A, sensor_axis, poles, desired=None):
     """l with eig(A - l C) = poles for any observable 3x3 A and C = p' (the T^-1 L construction).
 
     The same formulas as `observer_gain` (Lebedev 1976, text after eq. 4.7) with A general;
     raises InputError("sensor.axis", ...) when det T = -det W vanishes (pair unobservable).
+    `desired`: theta's coefficients np.poly(poles).real, when the caller places the same
+    (already checked) poles again and again.
     """
-    mu = check_observer_poles(poles)
+    if desired is None:
+        desired = np.poly(check_observer_poles(poles)).real
     A = np.asarray(A, dtype=float)
     c = np.asarray(sensor_axis, dtype=float)
     alpha = np.poly(A).real  # (1, alpha1, alpha2, alpha3)
-    beta = np.poly(mu).real  # (1, beta1, beta2, beta3)
+    beta = desired           # (1, beta1, beta2, beta3)
     At = A.T
     t1 = At @ At @ c + alpha[1] * (At @ c) + alpha[2] * c
     t2 = At @ c + alpha[1] * c
@@ -177,6 +180,9 @@ def gyrostat_error_matrix(inertia, spin_rate, momentum):
     """
     _, A = lebedev_matrices(inertia, spin_rate)
     h = np.asarray(momentum, dtype=float)
+    if h.ndim == 1:  # one H (every control period with measured momentum): the quick way
+        cross = np.array([[0.0, -h[2], h[1]], [h[2], 0.0, -h[0]], [-h[1], h[0], 0.0]])
+        return A + cross / principal_moments("body.inertia", inertia)[:, None]
     zero = np.zeros(h.shape[:-1])
     cross = np.stack([np.stack([zero, -h[..., 2], h[..., 1]], -1),
                       np.stack([h[..., 2], zero, -h[..., 0]], -1),
@@ -217,6 +223,7 @@ class LebedevObserver:
         self.spin_rate = float(spin_rate)
         self.C = check_unit_vector(sensor_axis, "sensor.axis")
         self.poles = check_observer_poles(poles)
+        self._desired = np.poly(self.poles).real   # theta(s), placed again every period with measured momentum
         self.l = observer_gain(self.inertia, self.spin_rate, self.C, poles)
         # Closed-loop gain: the paper's l, or l for A + I^-1 [H x] when the actuators hold H.
         self.l_closed = self.l if design_momentum is None else ackermann_gain(
@@ -234,7 +241,8 @@ class LebedevObserver:
     def gain_for(self, momentum) -> np.ndarray:
         """l placing eig(A + I^-1 [H x] - l C) at the observer's poles for the momentum H held
         [N m s, body axes]; InputError("sensor.axis", ...) when that pair is unobservable."""
-        return ackermann_gain(gyrostat_error_matrix(self.inertia, self.spin_rate, momentum), self.C, self.poles)
+        return ackermann_gain(gyrostat_error_matrix(self.inertia, self.spin_rate, momentum), self.C, self.poles,
+                              self._desired)
 
     def closed_gain(self, momentum=None, z=None):
         """The gain l_c of the closed-loop observer (eq. 4.6): fixed, or, with measured momentum,
