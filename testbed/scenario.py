@@ -65,7 +65,7 @@ class SimConfig:
         self.samples_per_tick = schema.whole_multiple(self.control_period_s, self.estimator_period_s,
                                                       schema.join(path, "control_period_s"), "estimator_period_s")
         schema.whole_multiple(self.trace_period_s, self.estimator_period_s, schema.join(path, "trace_period_s"),
-                              "estimator_period_s")
+                              "control_period_s" if self.samples_per_tick == 1 else "estimator_period_s")
         steps_total = self.duration_s / self.dt_s
         if steps_total > MAX_PHYSICS_STEPS:
             raise InputError(schema.join(path, "duration_s"), f"{self.duration_s:g} s at dt_s = {self.dt_s:g} s is "
