@@ -12,10 +12,12 @@
 Design data flow: the law owns the task (Omega, gains) and publishes Omega; the estimator
 reads it, the sensing axis p (C = p', eq. 4.3) the single-axis sensor publishes, and the
 key under which the allocator reports the torque it delivered (all through
-`StageContext.stages`), and checks observability (eq. 4.4-4.5) before the run. Causality: at tick k the observer has integrated
-over [t_(k-1), t_k] with the gyro sample y_(k-1) and the input u_(k-1) = M / I that were held
-over that interval (u from the torque the allocator reports delivered), so z(t_k) uses no
-information from t_k or later.
+`StageContext.stages`), and checks observability (eq. 4.4-4.5) before the run. Causality: at sample k the observer has
+integrated over [t_(k-1), t_k] with the input u = M / I that was held over that interval (u
+from the torque the allocator reports delivered) and the gyro held at y_(k-1)
+(`measurement_hold: zero_order`) or interpolated from y_(k-1) to y_k (`linear`), so z(t_k)
+uses no information from after t_k. The samples come every `sim.estimator_period_s`, which
+may be shorter than the law's period.
 """
 
 from __future__ import annotations
