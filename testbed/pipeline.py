@@ -287,18 +287,9 @@ class Pipeline:
 
     def tick(self, t: float, plant) -> None:
         """Sensor, estimator, law and allocator at time t, then the command to the plant."""
-        slot = "sensor"
+        self.sense(t, plant)
+        slot = "law"
         try:
-            if self._sensing:
-                self.measurement = self.sensor.measure(t, plant)
-                if self._sensor_check is not None:
-                    self._sensor_check(t, self.measurement)
-            slot = "estimator"
-            if self._estimating:
-                self.estimate = self.estimator.estimate(t, self.measurement, self.command)
-                if self._estimator_check is not None:
-                    self._estimator_check(t, self.estimate)
-            slot = "law"
             if self._controlling:
                 self.demand = self.law.torque(t, self.estimate)
                 if self._law_check is not None:
@@ -334,8 +325,9 @@ class Pipeline:
                            f"{type(exc).__name__}: {exc}")
 
     def sense(self, t: float, plant) -> None:
-        """Sensor and estimator alone at time t: a sample between two control instants when
-        they run faster than the law (`sim.estimator_period_s`); the command stays held."""
+        """Sensor and estimator at time t: the first half of `tick`, and alone a sample between
+        two control instants when they run faster than the law (`sim.estimator_period_s`),
+        the command staying held."""
         slot = "sensor"
         try:
             if self._sensing:

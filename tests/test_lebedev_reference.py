@@ -20,6 +20,19 @@ from test_lebedev_stages import _paper_loop_continuous
 
 DEG = np.pi / 180
 CONTINUOUS = "reference={type: lebedev_continuous}"
+# A case not in the repository: other inertia, gyro axis, poles, gains and Omega.
+OTHER_CASE = """name: other_case
+description: a small satellite spun up to 2 deg/s from a skewed gyro
+model: {system: satellite, inertia_kg_m2: [300, 500, 600], mass_kg: 200}
+initial: {omega_deg_s: [0.3, -0.2, 0.5]}
+sim: {duration_s: 120, dt_s: 0.02, control_period_s: 0.02, trace_period_s: 0.2}
+pipeline:
+  sensor: {type: rate_gyro, axis: [0.3, 0.5, 0.8124038404635961]}
+  estimator: {type: lebedev, poles_per_s: [-0.2, -0.25, -0.3], startup_s: 60}
+  law: {type: lebedev, task: spin, spin_rate_deg_s: 2.0, gains_per_s: [-0.5, -0.5, -0.5]}
+  allocator: {type: ideal_torque}
+reference: {type: lebedev_continuous}
+"""
 
 
 def _reference(name, times, overrides=()):
@@ -75,18 +88,7 @@ def test_sampled_loop_converges_to_it_at_first_order(tmp_path):
     deg/s at 0.04, 0.02, 0.01 s over 400 s), so its limit, the reference, is the continuous loop:
     extrapolated to period 0 (Richardson) the deviation vanishes to a few % of the sampled one."""
     case = tmp_path / "other_case.yaml"
-    case.write_text("""name: other_case
-description: a small satellite spun up to 2 deg/s from a skewed gyro
-model: {system: satellite, inertia_kg_m2: [300, 500, 600], mass_kg: 200}
-initial: {omega_deg_s: [0.3, -0.2, 0.5]}
-sim: {duration_s: 120, dt_s: 0.02, control_period_s: 0.02, trace_period_s: 0.2}
-pipeline:
-  sensor: {type: rate_gyro, axis: [0.3, 0.5, 0.8124038404635961]}
-  estimator: {type: lebedev, poles_per_s: [-0.2, -0.25, -0.3], startup_s: 60}
-  law: {type: lebedev, task: spin, spin_rate_deg_s: 2.0, gains_per_s: [-0.5, -0.5, -0.5]}
-  allocator: {type: ideal_torque}
-reference: {type: lebedev_continuous}
-""")
+    case.write_text(OTHER_CASE)
     deviation = {}
     for hold in ("zero_order", "linear"):
         for h in (0.02, 0.01):

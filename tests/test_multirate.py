@@ -12,19 +12,8 @@ import pytest
 from testbed.errors import InputError
 from testbed.runner import run_scenario
 from testbed.scenario import load_scenario
+from test_lebedev_reference import OTHER_CASE
 
-OTHER_CASE = """name: other_case
-description: a small satellite spun up to 2 deg/s from a skewed gyro
-model: {system: satellite, inertia_kg_m2: [300, 500, 600], mass_kg: 200}
-initial: {omega_deg_s: [0.3, -0.2, 0.5]}
-sim: {duration_s: 120, dt_s: 0.01, control_period_s: 0.04, trace_period_s: 0.04}
-pipeline:
-  sensor: {type: rate_gyro, axis: [0.3, 0.5, 0.8124038404635961]}
-  estimator: {type: lebedev, poles_per_s: [-0.2, -0.25, -0.3], startup_s: 60}
-  law: {type: lebedev, task: spin, spin_rate_deg_s: 2.0, gains_per_s: [-0.5, -0.5, -0.5]}
-  allocator: {type: ideal_torque}
-reference: {type: lebedev_continuous}
-"""
 
 
 def test_the_control_period_given_as_estimator_period_is_the_one_rate_run():
@@ -78,7 +67,8 @@ def test_held_measurement_error_is_first_order_in_the_estimator_period(tmp_path)
     case.write_text(OTHER_CASE)
     deviation = {}
     for ts in (0.02, 0.01, 0.005):
-        run = run_scenario(load_scenario(str(case), [f"sim.dt_s={ts}", f"sim.estimator_period_s={ts}",
+        run = run_scenario(load_scenario(str(case), ["sim.control_period_s=0.04", "sim.trace_period_s=0.04",
+                                                     f"sim.dt_s={ts}", f"sim.estimator_period_s={ts}",
                                                      f"pipeline.estimator.max_substep_s={ts}"]), None)
         assert run.status == "ok"
         deviation[ts] = run.metrics["max_deviation_from_continuous_deg_s"]
