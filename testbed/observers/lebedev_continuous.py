@@ -6,7 +6,8 @@ estimate of x = w - (0, 0, Omega), eq. 4.1) and the momentum H an internal actua
 (body axes [N m s]; zero and constant for ideal body torques).
 
 - start-up, 0 <= t < t*: the body is uncontrolled, I w' = -w x (I w + H), H constant; the
-  linear observer z' = A z + l (y - C z) (eq. 3.1) runs from z = 0;
+  linear observer z' = A z + l (y - C z) (eq. 3.1, or its form with H, `startup_model`) runs
+  from z = 0;
 - closed loop, t >= t*: the law M = I K z (eq. 4.7); the observer
   z' = A z + l_c (y - C z) + F(z) + u with u = M / I (eq. 4.6); ideal torques act on the
   body directly, I w' = M - w x I w; an internal actuator that compensates w x H with the
@@ -25,6 +26,7 @@ from scipy.integrate import solve_ivp
 
 from testbed.errors import InputError
 from testbed.observers.lebedev_observer import lebedev_nonlinearity
+
 
 def _cross(a, b):
     """a x b of two 3-vectors (np.cross costs several times more on vectors this small)."""

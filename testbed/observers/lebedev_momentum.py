@@ -8,8 +8,8 @@ total momentum"). With H the observer error obeys e' = (A_H - l C) e, A_H = A + 
 At the wanted spin w = (0, 0, Omega) the total momentum in body axes is L = I Omega e_z + H,
 and A_H depends on H only through L: its 2x2 block is [[0, (Iy Omega - L3)/Ix],
 [(L3 - Ix Omega)/Iy, 0]] (the rigid body's A with Iz Omega replaced by L3), its other entries
-L1, L2 over the moments. Expanding det W (done symbolically; the numbers below check it) for L
-along z gives
+L1, L2 over the moments. Expanding det W symbolically for L along z gives (checked against
+numerical determinants on random bodies in tests/test_lebedev_momentum.py)
 
     det W = gamma (Ix Omega - L3)(Iy Omega - L3)(Ix (Ix Omega - L3) beta^2 + Iy (Iy Omega - L3) alpha^2) / (Ix^2 Iy^2),
 
@@ -17,7 +17,7 @@ which for H = 0 (L3 = Iz Omega) is eq. 4.5. So an axial total momentum is unobse
 L3 = Ix Omega, at L3 = Iy Omega and at L3 = Omega (Ix^2 beta^2 + Iy^2 alpha^2) / (Ix beta^2 + Iy alpha^2)
 between them (`axial_unobservable_momenta`). In general det W is a cubic in L; its zero set is
 a surface through those three points. L is fixed in inertial space while the body turns under
-it, whatever attitude the spin-up ends in, every end state is observable iff the ball |L| < r*
+it: whatever attitude the spin-up ends in, every end state is observable iff the ball |L| < r*
 misses the surface, r* = `observable_momentum_radius` (the nearest zero of the cubic along any
 ray from L = 0, which is observable whenever the rigid body is); r* is small (15.4 N m s for the
 flagship's spacecraft, below Ix Omega = 21.8) because the surface bends towards L = 0 off the

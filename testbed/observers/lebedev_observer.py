@@ -202,8 +202,9 @@ def lebedev_torque(inertia, k, z):
 class LebedevObserver:
     """Discrete-time realisation of the continuous observers (3.1) and (4.6).
 
-    Between two control instants the sample y and the input u are held (zero-order
-    hold) and the continuous observer ODE is integrated with classical RK4 in equal
+    Between two samples the input u is held (zero-order hold), y is held too or
+    interpolated linearly to the newer sample (`y_end`), and the continuous observer ODE
+    is integrated with classical RK4 in equal
     substeps no longer than `max_substep` (RK4 rather than an exact ZOH matrix because
     eq. 4.6 contains the quadratic F(z); A - lC has |entries| ~ 40 1/s in the paper's
     example, so substeps of 0.05 s keep h*|A - lC| ~ 1, well inside RK4's region).
@@ -211,7 +212,9 @@ class LebedevObserver:
     Holding y over the period delays the innovation, and |l| is large (~40 1/s in the
     example), so the period must stay short. Measured on the section-6 example (RK4
     truth, t* = 150 s), max |w - (0,0,1)| deg/s at 700 s: continuous 7.6e-7; dt = 0.05 s
-    1.2e-6; 0.1 s 2.7e-6; 0.2 s 4.9e-5; 0.25 s 4.4e-4; dt = 0.5 s diverges.
+    1.2e-6; 0.1 s 2.7e-6; 0.2 s 4.9e-5; 0.25 s 4.4e-4; dt = 0.5 s diverges. The held y
+    costs a deviation from the continuous loop first order in the period (0.32 deg/s at
+    0.05 s); interpolated, 0.0078 deg/s (README "One gyro", bench/bench_lebedev_rates.py).
 
     State z estimates the deviation x = (wx, wy, wz - Omega); y is the raw gyro output
     p . w [rad/s]; the innovation uses y_dev = y - gamma Omega, since y = C x + gamma Omega.
