@@ -41,7 +41,7 @@ def main() -> None:
     print(f"inertia {inertia.tolist()} kg m^2, Omega {args.spin_deg_s} deg/s, gyro axis {np.round(axis, 4).tolist()}")
     print("axial unobservable L3 [N m s]:", np.round(axial_unobservable_momenta(inertia, spin, axis), 2).tolist())
     print(f"r* = {radius:.2f} N m s (nearest unobservable L = {np.round(nearest, 2).tolist()})")
-    print("| |L| [N m s] | " + " | ".join(f"{a} deg" for a in ANGLES_DEG) + " |")
+    print("| L [N m s] | " + " | ".join(f"{a} deg" for a in ANGLES_DEG) + " |")
     print("|---:|" + "---:|" * len(ANGLES_DEG))
     for size in SIZES:
         cells = []
