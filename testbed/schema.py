@@ -38,7 +38,8 @@ def _type_name(tp) -> str:
     return getattr(tp, "__name__", str(tp))
 
 
-def _is_number(value) -> bool:
+def is_number(value) -> bool:
+    """An int or float, not a bool (YAML's true/false are not numbers here)."""
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
@@ -61,7 +62,7 @@ def _convert(tp, value, path: str, meta: dict):
     if dataclasses.is_dataclass(tp):
         return load(tp, value, path)
     if tp is float:
-        if not _is_number(value):
+        if not is_number(value):
             raise InputError(path, f"must be a number, got {quoted(value)}")
         value = float(value)
         if not math.isfinite(value):

@@ -1,12 +1,16 @@
-"""`testbed sweep`: run every case of a scenario's `sweep:` block, in parallel, into a CSV.
+"""`testbed sweep` (also `testbed campaign`): run every case of a scenario's `sweep:` block, in
+parallel, into a table; or rerun one case alone.
 
     testbed sweep SCENARIO [--workers N] [--out DIR] [--rrd] [--set KEY.PATH=VALUE] [--json]
+    testbed sweep SCENARIO --case N [--out DIR] [--set ...] [--json]
 
-Writes DIR/<scenario>.csv (default DIR: runs/<scenario>_sweep), one row per case: the swept
-values, status (ok | diverged | error), passed, error, wall time, every metric and every
-check (pass/FAIL); with --rrd also DIR/caseNNNN.rrd per case. A progress line shows on a
-terminal. `--set` changes the base scenario before the sweep expands (the sweep block too).
-Exit 0 when every case passed all its checks, 1 otherwise, 2 for bad input (nothing runs).
+Writes DIR/<scenario>.csv (default DIR: runs/<scenario>_sweep), one row per case
+(testbed.sweep_runner); with --rrd also DIR/caseNNNN.rrd per case. `--case N` rebuilds case
+N alone from the campaign seed, runs it in this process (bit for bit the numbers of its row)
+and writes DIR/caseNNNN.rrd. Every case is validated and built (and what it would run with
+read back, testbed.readback) before the first one runs. `--set` changes the base scenario
+before the sweep expands (the sweep block too). Exit 0 when every case passed all its
+checks, 1 otherwise, 2 for bad input (nothing runs).
 """
 
 from __future__ import annotations
@@ -24,55 +28,78 @@ EXIT_OK, EXIT_FAILED = 0, 1
 
 @command("sweep")
 def add_parser(subparsers) -> None:
-    p = subparsers.add_parser("sweep", help="run a scenario's sweep cases in parallel and write a CSV table")
+    p = subparsers.add_parser("sweep", aliases=["campaign"],
+                              help="run a scenario's sweep or Monte Carlo campaign in parallel into a table")
     p.add_argument("scenario", help="scenario file or name in scenarios/ (with a sweep: block)")
     p.add_argument("--workers", type=int, default=None, help="parallel processes (default: CPU count)")
     p.add_argument("--out", help="output directory (default runs/<scenario>_sweep)")
     p.add_argument("--rrd", action="store_true", help="also write one .rrd per case")
+    p.add_argument("--case", type=int, default=None, metavar="N",
+                   help="rerun case N alone (in this process) and write its .rrd")
     p.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE",
                    help="override a field of the base scenario before expanding")
     p.add_argument("--json", action="store_true", help="print the rows as one JSON list")
     p.set_defaults(func=run)
 
 
-def load_cases(name: str, overrides: list[str]):
-    """(scenario name, swept fields, cases) of a sweep scenario; InputError if anything is bad."""
+def load_campaign(name: str, overrides: list[str]):
+    """(scenario name, raw data with the overrides applied, its source path, sweep spec)."""
     from testbed.scenario import apply_override, read_yaml, resolve_path
-    from testbed.sweep import expand
     from testbed.sweep_spec import load_spec
 
     path = resolve_path(name)
     data = read_yaml(path)
     for assignment in overrides:
         apply_override(data, assignment)
-    fields = load_spec(data.get("sweep")).fields
-    return str(data.get("name", path.stem)), fields, expand(data, str(path))
+    return str(data.get("name", path.stem)), data, str(path), load_spec(data.get("sweep"))
+
+
+def build_and_read_back(scenario, values: dict) -> None:
+    """Build a case as its run will (testbed.runner.prepare) and check that every value set
+    reaches the built plant and stages (testbed.readback.NotApplied otherwise)."""
+    from testbed.readback import applied_values, check_applied
+    from testbed.runner import prepare
+
+    plant, pipeline, _ = prepare(scenario)
+    check_applied(values, applied_values(values, scenario, plant, pipeline.stages()))
+
+
+def load_cases(name: str, overrides: list[str], indices=None):
+    """(scenario name, swept fields, cases) of a sweep scenario, each case validated, built and
+    read back; InputError if anything is bad."""
+    from testbed.sweep import expand
+
+    name, data, source, spec = load_campaign(name, overrides)
+    return name, spec.fields, expand(data, source, build_and_read_back, indices)
+
+
+def output_folder(args, name: str) -> Path:
+    """The campaign's folder, refused before anything runs unless it can be written."""
+    from testbed.trace import file_stem, output_path
+
+    out = Path(args.out) if args.out else Path("runs") / f"{file_stem(name)}_sweep"
+    if out.exists() and not out.is_dir():
+        raise InputError("--out", f"{out} is a file; a sweep writes a folder (its table and traces)")
+    output_path(out / f"{file_stem(name)}.csv")  # probes that a file can be created there
+    return out
 
 
 def run(args) -> int:
-    from testbed.runner import prepare
-    from testbed.scenario import parse
-    from testbed.sweep_runner import run_cases, write_csv
-    from testbed.trace import file_stem, output_path
-
     workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
     if workers < 1:
         raise InputError("--workers", f"must be >= 1, got {workers}")
+    if args.case is not None:
+        return _rerun_case(args)
+    from testbed.sweep_runner import run_cases, write_csv
+    from testbed.trace import file_stem
+
     name, fields, cases = load_cases(args.scenario, args.set)
-    for case in cases:  # every case must fit its system before the first one runs
-        try:
-            prepare(parse(case.data, case.source))
-        except InputError as exc:
-            raise InputError(f"sweep case {case.index}", f"({case.label}) {exc.field}: {exc.reason}") from None
-    out = Path(args.out) if args.out else Path("runs") / f"{file_stem(name)}_sweep"
-    if out.exists() and not out.is_dir():
-        raise InputError("--out", f"{out} is a file; a sweep writes a folder (its CSV and traces)")
-    output_path(out / f"{file_stem(name)}.csv")
+    out = output_folder(args, name)
     with progress_bar(f"sweep {name}", len(cases), "cases") as bar:
         bar.disable = bar.disable or args.json
         rows = run_cases(cases, workers, out if args.rrd else None,
                          lambda done, total, failed: advance_to(bar, done, failed=failed))
-    csv_path = write_csv(out / f"{file_stem(name)}.csv", rows, fields)
+    csv_path = write_csv(out / f"{file_stem(name)}.csv", rows)
     if args.json:
         print(json.dumps(rows))
     else:
@@ -80,7 +107,33 @@ def run(args) -> int:
         print(f"sweep {name}: {len(rows)} cases, {passed} passed, {len(rows) - passed} failed; table {csv_path}")
         for r in rows:
             if not r["passed"]:
-                failed = [k.split(":", 1)[1] for k, v in r.items() if k.startswith("check:") and v == "FAIL"]
-                why = r.get("error") or f"failed checks: {', '.join(failed)}"
-                print(f"  case {r['case']} ({', '.join(f'{f}={r[f]}' for f in fields)}): {r['status']}: {why}")
+                print(f"  case {r['case']}: {r['status']}: {_why(r)}")
     return EXIT_OK if all(r["passed"] for r in rows) else EXIT_FAILED
+
+
+def _why(row: dict) -> str:
+    failed = [k.split(":", 1)[1] for k, v in row.items() if k.startswith("check:") and v == "FAIL"]
+    return row.get("error") or f"failed checks: {', '.join(failed)}"
+
+
+def _rerun_case(args) -> int:
+    """`--case N`: case N alone, in this process, its trace written."""
+    from testbed.sweep_runner import run_case
+    from testbed.trace import output_path
+
+    name, _, _, spec = load_campaign(args.scenario, args.set)
+    if not 0 <= args.case < spec.count:
+        raise InputError("--case", f"must be a case number 0 ... {spec.count - 1}, got {args.case}")
+    _, _, (case,) = load_cases(args.scenario, args.set, [args.case])
+    rrd = output_path(output_folder(args, name) / f"case{case.index:04d}.rrd")
+    row = run_case(case, str(rrd))
+    if args.json:
+        print(json.dumps(row))
+    else:
+        print(f"case {case.index} of {name} (seed {case.seed}): {row['status']}"
+              f"{'' if row['passed'] else ': ' + _why(row)}")
+        for key, value in row.items():
+            if key not in ("case", "status", "passed", "error", "seed"):
+                print(f"  {key:44s} {value}")
+        print(f"trace: {rrd}")
+    return EXIT_OK if row["passed"] else EXIT_FAILED

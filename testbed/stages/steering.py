@@ -61,6 +61,10 @@ class SteeringAllocator:
         self._check_options()
         self.reset_statistics()
 
+    def applied(self) -> dict:
+        """The rate limit the law is given [deg/s] (testbed.readback)."""
+        return {"beta_rate_max_deg_s": float(np.degrees(self.rate_max))}
+
     def _check_options(self) -> None:
         """Call the law once with a zero demand so a bad option value is refused before the run."""
         try:

@@ -18,7 +18,7 @@ from testbed.systems_registry import system
 
 @system("cmg_rhombus", CmgRhombusParams)
 def make_plant(params: CmgRhombusParams, sim) -> CmgPlant:
-    return CmgPlant(build(params, sim.dt_s, sim.integrator))
+    return CmgPlant(build(params, sim.dt_s, sim.integrator), params.cancel_initial_momentum)
 
 
 __all__ = ["ClusterGeometry", "CmgPlant", "CmgRhombus", "CmgRhombusParams", "build", "make_plant"]
