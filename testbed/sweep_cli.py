@@ -1,10 +1,13 @@
 """`testbed sweep` (also `testbed campaign`): run every case of a scenario's `sweep:` block, in
 parallel, into a table; or rerun one case alone.
 
-    testbed sweep SCENARIO [--workers N] [--out DIR] [--rrd] [--set KEY.PATH=VALUE] [--json]
+    testbed sweep SCENARIO [--workers N | --scheduler tcp://HOST:PORT] [--out DIR] [--rrd]
+                           [--set KEY.PATH=VALUE] [--json]
     testbed sweep SCENARIO --case N [--out DIR] [--set ...] [--json]
 
-Writes DIR/<scenario>.csv (default DIR: runs/<scenario>_sweep), one row per case
+The cases run on Dask (testbed.campaign_engine): a local cluster of --workers processes
+started inside the command, or the cluster whose scheduler is at --scheduler. Writes
+DIR/<scenario>.csv (default DIR: runs/<scenario>_sweep), one row per case
 (testbed.sweep_runner); with --rrd also DIR/caseNNNN.rrd per case. `--case N` rebuilds case
 N alone from the campaign seed, runs it in this process (bit for bit the numbers of its row)
 and writes DIR/caseNNNN.rrd. Every case is validated and built (and what it would run with
@@ -31,7 +34,10 @@ def add_parser(subparsers) -> None:
     p = subparsers.add_parser("sweep", aliases=["campaign"],
                               help="run a scenario's sweep or Monte Carlo campaign in parallel into a table")
     p.add_argument("scenario", help="scenario file or name in scenarios/ (with a sweep: block)")
-    p.add_argument("--workers", type=int, default=None, help="parallel processes (default: CPU count)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="worker processes of the local cluster (default: one per core)")
+    p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                   help="run on the Dask cluster of this scheduler instead of a local one")
     p.add_argument("--out", help="output directory (default runs/<scenario>_sweep)")
     p.add_argument("--rrd", action="store_true", help="also write one .rrd per case")
     p.add_argument("--case", type=int, default=None, metavar="N",
@@ -88,6 +94,8 @@ def run(args) -> int:
     workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
     if workers < 1:
         raise InputError("--workers", f"must be >= 1, got {workers}")
+    if args.scheduler is not None and args.workers is not None:
+        raise InputError("--workers", "sizes the local cluster; with --scheduler the cluster's own workers run the cases")
     if args.case is not None:
         return _rerun_case(args)
     from testbed.sweep_runner import run_cases, write_csv
@@ -98,7 +106,7 @@ def run(args) -> int:
     with progress_bar(f"sweep {name}", len(cases), "cases") as bar:
         bar.disable = bar.disable or args.json
         rows = run_cases(cases, workers, out if args.rrd else None,
-                         lambda done, total, failed: advance_to(bar, done, failed=failed))
+                         lambda done, total, failed: advance_to(bar, done, failed=failed), args.scheduler)
     csv_path = write_csv(out / f"{file_stem(name)}.csv", rows)
     if args.json:
         print(json.dumps(rows))

@@ -1,4 +1,4 @@
-"""Run the cases of a sweep or campaign in parallel processes, into one row each (a CSV table).
+"""Run the cases of a sweep or campaign on the engine (testbed.campaign_engine), one row each.
 
 A row is everything a case did, never an exception: `case`, the values set (a list of numbers
 as one column per component, `path[i]`), `status` (ok | diverged | error), `passed`, `error`,
@@ -12,11 +12,8 @@ from __future__ import annotations
 
 import csv
 import json
-import multiprocessing
 import time
 import traceback
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Callable
 
@@ -73,41 +70,24 @@ def died_row(case: Case, reason: str) -> dict:
             "seed": case.seed, **case.derived}
 
 
-def run_cases(cases: list[Case], workers: int, rrd_dir: Path | None = None,
-              progress: Callable[[int, int, int], None] | None = None) -> list[dict]:
-    """Rows for `cases`, in case order; `progress(done, total, failed)` after each case.
+def run_cases(cases: list[Case], workers: int | None = None, rrd_dir: Path | None = None,
+              progress: Callable[[int, int, int], None] | None = None, scheduler: str | None = None,
+              on_row: Callable[[dict], None] | None = None) -> list[dict]:
+    """Rows for `cases`, in case order, run on the engine (testbed.campaign_engine: a local
+    cluster of `workers` processes, or the Dask scheduler at `scheduler`); `on_row(row)` and
+    `progress(done, total, failed)` after each case, as it finishes."""
+    from testbed.campaign_engine import Engine, WorkerDied
 
-    Each case runs in a worker process (concurrent.futures with the spawn start method); one
-    worker runs the cases in this process. A worker process that dies takes only the cases it
-    had in flight with it (they are retried once in a fresh pool, then reported)."""
-    rrd = {c.index: str(rrd_dir / f"case{c.index:04d}.rrd") if rrd_dir else None for c in cases}
+    tasks = [(case, str(rrd_dir / f"case{case.index:04d}.rrd") if rrd_dir else None) for case in cases]
     rows: dict[int, dict] = {}
-
-    def finished(row):
-        rows[row["case"]] = row
-        if progress:
-            progress(len(rows), len(cases), sum(not r["passed"] for r in rows.values()))
-
-    if workers == 1:
-        for case in cases:
-            finished(run_case(case, rrd[case.index]))
-    else:
-        pending, tries = list(cases), {c.index: 0 for c in cases}
-        while pending:
-            context = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(max_workers=min(workers, len(pending)), mp_context=context) as pool:
-                futures = {pool.submit(run_case, case, rrd[case.index]): case for case in pending}
-                pending = []
-                for future in as_completed(futures):
-                    case = futures[future]
-                    try:
-                        finished(future.result())
-                    except BrokenProcessPool:
-                        tries[case.index] += 1
-                        if tries[case.index] < 2:
-                            pending.append(case)
-                        else:
-                            finished(died_row(case, "the worker process died running this case"))
+    with Engine(workers, scheduler) as engine:
+        for (case, _), outcome in engine.results(run_case, tasks, lambda task: f"case{task[0].index}"):
+            row = died_row(case, outcome.reason) if isinstance(outcome, WorkerDied) else outcome
+            rows[case.index] = row
+            if on_row:
+                on_row(row)
+            if progress:
+                progress(len(rows), len(cases), sum(not r["passed"] for r in rows.values()))
     return [rows[c.index] for c in cases]
 
 
