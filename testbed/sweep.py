@@ -35,6 +35,7 @@ class Case:
     source: str = ""
     seed: int = 0            # the case's own seed (testbed.sweep_spec.case_seed)
     derived: dict[str, float] = field(default_factory=dict)  # e.g. a misalignment angle [deg]
+    prepared: Any = None     # what `check` returned when it validated the case
 
     @property
     def label(self) -> str:
@@ -44,7 +45,8 @@ class Case:
 def expand(data: dict, source: str = "", check: Callable | None = None, indices=None) -> list[Case]:
     """Validate the sweep block of raw scenario `data` and every case it makes (see module doc);
     `check(scenario, values)` validates a parsed case further (e.g. builds it and reads back the
-    values, raising testbed.readback.NotApplied for one that did not arrive); `indices`
+    values, raising testbed.readback.NotApplied for one that did not arrive; what it returns is
+    kept as `Case.prepared`); `indices`
     builds only those cases (the refused share is then not judged)."""
     spec = load_spec(data.get("sweep"))
     base = {k: v for k, v in data.items() if k != "sweep"}
@@ -79,9 +81,8 @@ def _validated(draw, base: dict, source: str, spec, check, tally) -> Case:
                 raise InputError(f"sweep.{spec.part_of(key)}.{key}", exc.reason) from None
         try:
             scenario = parse(data, source)
-            if check is not None:
-                check(scenario, draw.values)
-            return Case(draw.index, dict(draw.values), data, source, draw.seed)
+            prepared = check(scenario, draw.values) if check is not None else None
+            return Case(draw.index, dict(draw.values), data, source, draw.seed, prepared=prepared)
         except NotApplied as exc:
             key = _swept_field(exc.path, draw.values)
             raise InputError(f"sweep.{spec.part_of(key)}.{key}", f"case {draw.index}: the value set does not "

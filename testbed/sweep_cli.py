@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 from pathlib import Path
 
 from testbed.commands import command
@@ -42,6 +43,8 @@ def add_parser(subparsers) -> None:
     p.add_argument("--rrd", action="store_true", help="also write one .rrd per case")
     p.add_argument("--case", type=int, default=None, metavar="N",
                    help="rerun case N alone (in this process) and write its .rrd")
+    p.add_argument("--resume", action="store_true",
+                   help="keep the rows the same campaign left in the folder and run only the other cases")
     p.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE",
                    help="override a field of the base scenario before expanding")
     p.add_argument("--json", action="store_true", help="print the rows as one JSON list")
@@ -60,23 +63,27 @@ def load_campaign(name: str, overrides: list[str]):
     return str(data.get("name", path.stem)), data, str(path), load_spec(data.get("sweep"))
 
 
-def build_and_read_back(scenario, values: dict) -> None:
+def build_and_read_back(scenario, values: dict) -> dict:
     """Build a case as its run will (testbed.runner.prepare) and check that every value set
-    reaches the built plant and stages (testbed.readback.NotApplied otherwise)."""
+    reaches the built plant and stages (testbed.readback.NotApplied otherwise); returns what
+    its row will hold: the read-back values, the names of its metrics and of its checks."""
+    from testbed.metrics import available
     from testbed.readback import applied_values, check_applied
     from testbed.runner import prepare
 
     plant, pipeline, _ = prepare(scenario)
-    check_applied(values, applied_values(values, scenario, plant, pipeline.stages()))
+    applied = applied_values(values, scenario, plant, pipeline.stages())
+    check_applied(values, applied)
+    return {"applied": applied, "metrics": available(scenario), "checks": list(scenario.checks)}
 
 
 def load_cases(name: str, overrides: list[str], indices=None):
-    """(scenario name, swept fields, cases) of a sweep scenario, each case validated, built and
-    read back; InputError if anything is bad."""
+    """(scenario name, raw data, cases) of a sweep scenario, each case validated, built and read
+    back; InputError if anything is bad."""
     from testbed.sweep import expand
 
-    name, data, source, spec = load_campaign(name, overrides)
-    return name, spec.fields, expand(data, source, build_and_read_back, indices)
+    name, data, source, _ = load_campaign(name, overrides)
+    return name, data, expand(data, source, build_and_read_back, indices)
 
 
 def output_folder(args, name: str) -> Path:
@@ -98,25 +105,61 @@ def run(args) -> int:
         raise InputError("--workers", "sizes the local cluster; with --scheduler the cluster's own workers run the cases")
     if args.case is not None:
         return _rerun_case(args)
-    from testbed.sweep_runner import run_cases, write_csv
-    from testbed.trace import file_stem
+    from testbed.campaign_engine import Engine
 
-    name, fields, cases = load_cases(args.scenario, args.set)
+    name, data, cases = load_cases(args.scenario, args.set)
     out = output_folder(args, name)
-    with progress_bar(f"sweep {name}", len(cases), "cases") as bar:
-        bar.disable = bar.disable or args.json
-        rows = run_cases(cases, workers, out if args.rrd else None,
-                         lambda done, total, failed: advance_to(bar, done, failed=failed), args.scheduler)
-    csv_path = write_csv(out / f"{file_stem(name)}.csv", rows)
+    with Engine(workers, args.scheduler) as engine:  # an unreachable scheduler is refused before any file is written
+        table, done = open_table(out, name, data, cases, args)
+        rows = _run_into(table, done, cases, engine, out if args.rrd else None, args)
     if args.json:
         print(json.dumps(rows))
     else:
         passed = sum(r["passed"] for r in rows)
-        print(f"sweep {name}: {len(rows)} cases, {passed} passed, {len(rows) - passed} failed; table {csv_path}")
+        print(f"sweep {name}: {len(rows)} cases, {passed} passed, {len(rows) - passed} failed; "
+              f"table {table.csv_path} (and .parquet)")
         for r in rows:
             if not r["passed"]:
                 print(f"  case {r['case']}: {r['status']}: {_why(r)}")
     return EXIT_OK if all(r["passed"] for r in rows) else EXIT_FAILED
+
+
+def open_table(out: Path, name: str, data: dict, cases, args):
+    """(the campaign's table in `out`, the rows it holds by case): its columns those the cases'
+    rows will have; a fresh table, or with --resume the one this campaign left there."""
+    from testbed.campaign_table import CampaignTable, fingerprint, merge_kinds
+    from testbed.sweep_runner import expected_row
+    from testbed.trace import file_stem
+
+    columns: dict = {}
+    for case in cases:
+        merge_kinds(columns, expected_row(case, case.prepared["applied"], case.prepared["metrics"],
+                                          case.prepared["checks"]))
+    identity = {"scenario": name, "set": list(args.set), "cases": len(cases), "fingerprint": fingerprint(data, cases)}
+    table = CampaignTable(out, file_stem(name), columns, identity)
+    return table, table.open(args.resume)
+
+
+def _run_into(table, done: dict, cases, engine, rrd_dir: Path | None, args) -> list[dict]:
+    """Run the cases the table does not hold yet (`done`), each row into it as its case
+    finishes; on Ctrl-C (or any failure) the table is closed with every finished row, then the
+    stop goes on."""
+    from testbed.sweep_runner import run_cases
+
+    todo = [case for case in cases if case.index not in done]
+    failed_before = sum(not row["passed"] for row in done.values())
+    try:
+        with progress_bar(f"sweep {table.csv_path.stem}", len(cases), "cases") as bar:
+            bar.disable = bar.disable or args.json
+            advance_to(bar, len(done), failed=failed_before)
+            run_cases(todo, rrd_dir=rrd_dir, on_row=table.append, engine=engine, progress=lambda count, total, failed:
+                      advance_to(bar, len(done) + count, failed=failed_before + failed))
+    except BaseException:
+        rows = table.close()
+        print(f"stopped: {len(rows)} of {len(cases)} cases finished, kept in {table.csv_path} and "
+              f"{table.parquet_path.name}; --resume runs the other {len(cases) - len(rows)}", file=sys.stderr)
+        raise
+    return table.close()
 
 
 def _why(row: dict) -> str:

@@ -10,8 +10,8 @@ first step with status error.
 
 from __future__ import annotations
 
-import csv
 import json
+import math
 import time
 import traceback
 from pathlib import Path
@@ -35,6 +35,21 @@ def flat(values: dict, prefix: str = "") -> dict:
     return cells
 
 
+def case_row(case: Case, applied: dict, status: str = "", passed: bool = False, error: str = "",
+             wall_s: float | None = None, results: dict | None = None) -> dict:
+    """The row of `case` (module doc); `applied`: testbed.readback.applied_values, `results`:
+    the metrics and the `check:NAME` cells."""
+    return ({"case": case.index, **flat(case.values), "status": status, "passed": passed, "error": error,
+             "wall_s": wall_s, "seed": case.seed, **case.derived}
+            | flat({path: value for path, (value, _) in applied.items()}, "applied:") | (results or {}))
+
+
+def expected_row(case: Case, applied: dict, metric_names, check_names) -> dict:
+    """The cells `case`'s row will hold, each with a placeholder of its kind (a table's columns)."""
+    return case_row(case, applied, wall_s=0.0, results={name: math.nan for name in metric_names}
+                    | {f"check:{name}": "" for name in check_names})
+
+
 def run_case(case: Case, rrd: str | None = None) -> dict:
     """Run one case (its trace to `rrd` if given) and return its row (see module doc)."""
     from testbed.readback import applied_values, check_applied
@@ -48,63 +63,43 @@ def run_case(case: Case, rrd: str | None = None) -> dict:
         applied.update(applied_values(case.values, scenario, plant, pipeline.stages()))
         check_applied(case.values, applied)
 
-    def row(status: str, passed: bool, error: str, wall_s: float, rest: dict) -> dict:
-        return ({"case": case.index, **flat(case.values), "status": status, "passed": passed, "error": error,
-                 "wall_s": wall_s, "seed": case.seed, **case.derived}
-                | flat({path: value for path, (value, _) in applied.items()}, "applied:") | rest)
-
     try:
         scenario = parse(case.data, case.source)
         result = run_scenario(scenario, Path(rrd) if rrd else None, on_prepared=read_back)
     except Exception as exc:  # noqa: BLE001  (a case's failure belongs in its row)
         last = traceback.extract_tb(exc.__traceback__)[-1]
-        return row("error", False, f"{type(exc).__name__}: {exc} ({Path(last.filename).name}:{last.lineno})",
-                   time.perf_counter() - wall0, {})
+        return case_row(case, applied, "error", False,
+                        f"{type(exc).__name__}: {exc} ({Path(last.filename).name}:{last.lineno})",
+                        time.perf_counter() - wall0)
     checks = {f"check:{c['name']}": "pass" if c["passed"] else "FAIL" for c in result.checks}
-    return row(result.status, result.passed, result.error or "", result.wall_s, result.metrics | checks)
+    return case_row(case, applied, result.status, result.passed, result.error or "", result.wall_s,
+                    result.metrics | checks)
 
 
 def died_row(case: Case, reason: str) -> dict:
     """The row of a case whose worker process died running it."""
-    return {"case": case.index, **flat(case.values), "status": "error", "passed": False, "error": reason,
-            "seed": case.seed, **case.derived}
+    return case_row(case, {}, "error", False, reason)
 
 
 def run_cases(cases: list[Case], workers: int | None = None, rrd_dir: Path | None = None,
               progress: Callable[[int, int, int], None] | None = None, scheduler: str | None = None,
-              on_row: Callable[[dict], None] | None = None) -> list[dict]:
-    """Rows for `cases`, in case order, run on the engine (testbed.campaign_engine: a local
-    cluster of `workers` processes, or the Dask scheduler at `scheduler`); `on_row(row)` and
-    `progress(done, total, failed)` after each case, as it finishes."""
+              on_row: Callable[[dict], None] | None = None, engine=None) -> list[dict]:
+    """Rows for `cases`, in case order, run on `engine` (testbed.campaign_engine.Engine, already
+    started), else on one started here: a local cluster of `workers` processes, or the Dask
+    scheduler at `scheduler`; `on_row(row)` and `progress(done, total, failed)` after each case,
+    as it finishes."""
     from testbed.campaign_engine import Engine, WorkerDied
 
+    if engine is None:
+        with Engine(workers, scheduler) as started:
+            return run_cases(cases, rrd_dir=rrd_dir, progress=progress, on_row=on_row, engine=started)
     tasks = [(case, str(rrd_dir / f"case{case.index:04d}.rrd") if rrd_dir else None) for case in cases]
     rows: dict[int, dict] = {}
-    with Engine(workers, scheduler) as engine:
-        for (case, _), outcome in engine.results(run_case, tasks, lambda task: f"case{task[0].index}"):
-            row = died_row(case, outcome.reason) if isinstance(outcome, WorkerDied) else outcome
-            rows[case.index] = row
-            if on_row:
-                on_row(row)
-            if progress:
-                progress(len(rows), len(cases), sum(not r["passed"] for r in rows.values()))
+    for (case, _), outcome in engine.results(run_case, tasks, lambda task: f"case{task[0].index}"):
+        row = died_row(case, outcome.reason) if isinstance(outcome, WorkerDied) else outcome
+        rows[case.index] = row
+        if on_row:
+            on_row(row)
+        if progress:
+            progress(len(rows), len(cases), sum(not r["passed"] for r in rows.values()))
     return [rows[c.index] for c in cases]
-
-
-def columns(rows: list[dict]) -> list[str]:
-    """Every cell name in first-seen order (case, values, status, ..., metrics), checks last."""
-    names: dict[str, None] = {}
-    for row in rows:
-        names.update(dict.fromkeys(row))
-    return [k for k in names if not k.startswith("check:")] + [k for k in names if k.startswith("check:")]
-
-
-def write_csv(path: Path, rows: list[dict]) -> Path:
-    """One row per case; floats written with repr (round-trip exact), missing cells empty."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=columns(rows), restval="")
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: repr(v) if isinstance(v, float) else v for k, v in row.items()})
-    return path

@@ -18,6 +18,7 @@ from pathlib import Path
 import pytest
 import yaml
 
+from testbed.campaign_table import read_parquet
 from testbed.cli import main
 
 DASK = Path(sys.executable).with_name("dask")  # the CLI of the dask package, beside this Python
@@ -57,7 +58,9 @@ def table(path: Path) -> list[dict]:
 
 
 def without_wall_time(rows: list[dict]) -> list[dict]:
-    return [{k: v for k, v in row.items() if k != "wall_s"} for row in rows]
+    """The rows without their wall times, NaN as the text "nan" (so that NaN equals NaN)."""
+    return [{k: "nan" if isinstance(v, float) and math.isnan(v) else v for k, v in row.items() if k != "wall_s"}
+            for row in rows]
 
 
 @pytest.fixture
@@ -105,6 +108,8 @@ def test_a_dask_cluster_gives_the_local_clusters_table_and_each_case_alone(tmp_p
     assert len(remote) == 20 and [r["case"] for r in remote] == [str(i) for i in range(20)]
     assert sum(r["status"] == "ok" for r in remote) == 20
     assert without_wall_time(remote) == without_wall_time(local)
+    assert without_wall_time(read_parquet(tmp_path / "remote" / "cluster_campaign.parquet")) == without_wall_time(
+        read_parquet(tmp_path / "local" / "cluster_campaign.parquet"))
     for i in range(20):
         assert main(["sweep", path, "--case", str(i), "--out", str(tmp_path / "alone"), "--json"]) in (0, 1)
         alone = json.loads(capsys.readouterr().out)
