@@ -2,18 +2,21 @@
 
 `Engine()` starts a local cluster inside the command, one single-threaded worker process per
 core (or `workers`); `Engine(scheduler="tcp://HOST:PORT")` submits to a cluster started with
-`dask scheduler` and `dask worker` (README, "Monte Carlo campaigns"), refused as bad input
+`dask scheduler` and `dask worker` (README, "Several machines"), refused as bad input
 when nothing answers there within SCHEDULER_TIMEOUT_S or no worker joins.
 
-`results(fn, tasks)` submits fn(*args) for every argument tuple and yields (args, outcome) as each
+`results(fn, tasks)` runs fn(*args) for every argument tuple and yields (args, outcome) as each
 finishes: fn's return value, or `WorkerDied` when the worker process running it died twice.
-On the local cluster the scheduler gives each worker one task at a time (worker-saturation
-1.0), so a dying worker takes only the case it was running with it; that case is retried once
-on another worker (allowed-failures 1), then reported. A result is released as soon as it is
-taken, so no finished case is lost and recomputed when a worker dies later. Ctrl-C (or any
-exception in the caller's loop) cancels every case not yet finished; leaving the `with` block
-closes the local cluster, stopping the cases still running. On an external cluster those run
-on to their end (a worker thread cannot be stopped), their results unused.
+The command hands out one task per worker thread, and the next when one finishes, so no task
+waits on a worker behind another: a dying worker takes only the case it was running with it
+(the scheduler fails every task a dead worker was processing). The command hands that case
+out once more (the local scheduler reports the death at once, allowed-failures 0; another
+scheduler first retries by its own setting, Dask's default 3 times). Results are fetched in
+the background as tasks finish and released once taken, and a worker gets its next task only
+after that, so a worker that dies holds no finished result that would have to be computed
+again. Ctrl-C (or any exception in the caller's loop) cancels the cases out; leaving the
+`with` block closes the local cluster, stopping them. On an external cluster the ones running
+go on to their end (a worker thread cannot be stopped), their results unused.
 """
 
 from __future__ import annotations
@@ -31,10 +34,10 @@ from distributed.diagnostics.plugin import WorkerPlugin
 from testbed.errors import InputError
 
 SCHEDULER_TIMEOUT_S = 5.0     # connecting to --scheduler, and again for its first worker
-LOCAL_CONFIG = {
-    "distributed.scheduler.allowed-failures": 1,     # a case whose worker dies runs once more
-    "distributed.scheduler.worker-saturation": 1.0,  # one case per single-threaded worker at a time
-}
+RETRIES = 1  # a case whose worker died runs once more
+# The local scheduler reports a dead worker's task at once (it would otherwise run it again
+# itself, possibly on a worker that is busy): the command retries it, one task per worker.
+LOCAL_CONFIG = {"distributed.scheduler.allowed-failures": 0}
 
 
 @dataclass(frozen=True)
@@ -108,23 +111,51 @@ class Engine:
     def results(self, fn: Callable, tasks: Iterable[tuple], name: Callable[[tuple], str] = str
                 ) -> Iterator[tuple[tuple, Any]]:
         """(args, fn(*args) or WorkerDied) for every argument tuple in `tasks`, in the order they
-        finish; name(args) names the task on the scheduler."""
+        finish; name(args) names the task (uniquely) on the scheduler. At most one task per
+        worker thread is out at a time; a task whose worker died is handed out RETRIES times
+        more (module doc)."""
         from distributed import KilledWorker, as_completed
 
         batch = uuid.uuid4().hex[:8]  # keys stay unique on a scheduler shared by several campaigns
-        futures = {self.client.submit(fn, *args, key=f"{name(args)}-{batch}", pure=False): args for args in tasks}
+        waiting, retry, running, deaths = iter(tasks), [], {}, {}
+        finished = as_completed([], with_results=True, raise_errors=False)
+
+        def hand_out() -> None:
+            while len(running) < self.slots():
+                args = retry.pop() if retry else next(waiting, None)
+                if args is None:
+                    return
+                key = f"case-{batch}-{name(args)}-{deaths.get(name(args), 0)}"
+                future = self.client.submit(fn, *args, key=key, pure=False)
+                running[future] = args
+                finished.add(future)
+
+        hand_out()
         try:
-            for future in as_completed(list(futures)):
-                args = futures.pop(future)
-                try:
-                    outcome = future.result()
-                except KilledWorker as exc:
-                    outcome = WorkerDied(f"the worker process died running it, twice ({exc})")
+            for future, outcome in finished:
+                args, failed = running.pop(future), future.status == "error"
                 future.release()
-                yield args, outcome
+                if isinstance(outcome, BaseException):  # cancelled: the cluster went away
+                    raise outcome
+                if failed:  # outcome is (type, exception, traceback)
+                    if not isinstance(outcome[1], KilledWorker):
+                        raise outcome[1]
+                    deaths[name(args)] = deaths.get(name(args), 0) + 1
+                    if deaths[name(args)] <= RETRIES:
+                        retry.append(args)
+                        outcome = None
+                    else:
+                        outcome = WorkerDied(f"the worker process died running it, {deaths[name(args)]} times")
+                hand_out()
+                if outcome is not None:
+                    yield args, outcome
         finally:
-            if futures:
-                self.client.cancel(list(futures))
+            if running:
+                self.client.cancel(list(running))
+
+    def slots(self) -> int:
+        """How many tasks may be out: the cluster's worker threads now (at least 1)."""
+        return max(1, sum(self.client.nthreads().values()))
 
 
 def _connect(address: str):

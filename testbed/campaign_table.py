@@ -83,7 +83,7 @@ class CampaignTable:
         elif resume and self.csv_path.exists():
             raise InputError("--resume", f"{self.csv_path} has no campaign.json beside it: it cannot be "
                                          "told apart from another campaign's table")
-        _write_atomically(self.identity_path, json.dumps(self.identity | {"columns": self.columns}, indent=1))
+        write_atomically(self.identity_path, json.dumps(self.identity | {"columns": self.columns}, indent=1))
         self._rewrite_csv()  # the finished rows only (a cut-off last line is dropped)
         self._handle = open(self.csv_path, "a", newline="")
         self._writer = csv.DictWriter(self._handle, fieldnames=list(self.columns), restval="", extrasaction="ignore")
@@ -198,7 +198,14 @@ def _csv_cells(row: dict) -> dict:
     return {k: repr(v) if isinstance(v, float) else v for k, v in row.items()}
 
 
-def _write_atomically(path: Path, text: str) -> None:
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def write_atomically(path: Path, text: str) -> None:
+    """`text` into `path`, through a temporary file renamed onto it (never half a file)."""
     with _atomic(path) as handle:
         handle.write(text)
 
@@ -217,6 +224,7 @@ class _atomic:
     def __exit__(self, kind, value, traceback):
         self.handle.close()
         if kind is None:
+            os.chmod(self.partial, 0o666 & ~_umask())  # what open() would have given (mkstemp gives 0o600)
             os.replace(self.partial, self.path)
         else:
             Path(self.partial).unlink(missing_ok=True)

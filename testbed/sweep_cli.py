@@ -74,7 +74,8 @@ def build_and_read_back(scenario, values: dict) -> dict:
     plant, pipeline, _ = prepare(scenario)
     applied = applied_values(values, scenario, plant, pipeline.stages())
     check_applied(values, applied)
-    return {"applied": applied, "metrics": available(scenario), "checks": list(scenario.checks)}
+    return {"applied": applied, "metrics": available(scenario),
+            "checks": {name: {"max": limit.max, "min": limit.min} for name, limit in scenario.checks.items()}}
 
 
 def load_cases(name: str, overrides: list[str], indices=None):
@@ -112,16 +113,34 @@ def run(args) -> int:
     with Engine(workers, args.scheduler) as engine:  # an unreachable scheduler is refused before any file is written
         table, done = open_table(out, name, data, cases, args)
         rows = _run_into(table, done, cases, engine, out if args.rrd else None, args)
+    lines = summarise(name, rows, cases, out, args)
     if args.json:
         print(json.dumps(rows))
     else:
         passed = sum(r["passed"] for r in rows)
         print(f"sweep {name}: {len(rows)} cases, {passed} passed, {len(rows) - passed} failed; "
-              f"table {table.csv_path} (and .parquet)")
-        for r in rows:
-            if not r["passed"]:
-                print(f"  case {r['case']}: {r['status']}: {_why(r)}")
+              f"table {table.csv_path} (and .parquet), summary in {out / 'summary'}")
+        print("\n".join(lines))
     return EXIT_OK if all(r["passed"] for r in rows) else EXIT_FAILED
+
+
+def summarise(name: str, rows: list[dict], cases, out: Path, args) -> list[str]:
+    """Write DIR/summary/summary.json and summary.rrd of a finished campaign (testbed.campaign_stats,
+    testbed.campaign_plots); returns the lines for the terminal."""
+    from testbed.campaign_plots import write_summary_rrd
+    from testbed.campaign_stats import report, rerun_command, summary
+    from testbed.campaign_table import write_atomically
+    from testbed.sweep_runner import flat
+
+    metric_names = list(dict.fromkeys(m for case in cases for m in case.prepared["metrics"]))
+    parameters = list(dict.fromkeys(k for case in cases for k in [*flat(case.values), *case.derived]))
+    limits = {case.index: case.prepared["checks"] for case in cases}
+    result = summary(name, rows, metric_names, limits, rerun_command(args.scenario, args.set, str(out)))
+    result["parameters"] = parameters
+    (out / "summary").mkdir(exist_ok=True)  # apart from the cases' caseNNNN.rrd
+    write_atomically(out / "summary" / "summary.json", json.dumps(result, indent=1))
+    write_summary_rrd(out / "summary" / "summary.rrd", rows, metric_names, parameters, result)
+    return report(result)
 
 
 def open_table(out: Path, name: str, data: dict, cases, args):
