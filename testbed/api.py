@@ -16,6 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from testbed.errors import InputError
+from testbed.math.validation import existing_file
 from testbed.runner import RunResult, run_scenario
 from testbed.scenario import Scenario, load_scenario, parse
 from testbed.trace import read_rrd, read_signals
@@ -39,14 +40,14 @@ def run(scenario: Scenario | str | Path | dict, out: str | Path | None = None,
         scenario = load(scenario, overrides)
     elif overrides:
         raise InputError("overrides", "a loaded Scenario is already validated: pass overrides to load()")
-    return run_scenario(scenario, Path(out) if out is not None else None, progress, keep_data=True)
+    return run_scenario(scenario, out, progress, keep_data=True)  # out as given: a trailing "/" matters
 
 
 def read(path: str | Path) -> RunResult:
     """A run read back from its `.rrd`: the stored result (status, metrics, checks) and every
     recorded signal as arrays. A file that is not a testbed run raises InputError."""
     path = Path(path)
-    if not path.is_file():
+    if not existing_file("rrd", path):
         raise InputError("rrd", f"no such file: {path}")
     try:
         stored = read_rrd(path)["result"]
@@ -54,6 +55,24 @@ def read(path: str | Path) -> RunResult:
     except Exception as exc:  # a foreign or damaged file is bad input, not a crash
         raise InputError("rrd", f"cannot read {path}: {exc}") from None
     fields = ("scenario", "sim_s", "wall_s", "status", "error", "metrics", "checks")
-    if not isinstance(stored, dict) or not all(k in stored for k in fields):
+    if not _is_result(stored):
         raise InputError("rrd", f"{path}: its run/result entity is not a testbed result")
     return RunResult(*(stored[k] for k in fields), rrd=str(path), trace=trace)
+
+
+def _is_result(stored) -> bool:
+    """The shape `RunResult.as_json` writes: names, numbers and checks of the right types."""
+    def number(x):
+        return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+    def check(c):
+        return (isinstance(c, dict) and isinstance(c.get("name"), str) and isinstance(c.get("limit"), str)
+                and isinstance(c.get("passed"), bool) and (number(c.get("value")) or c.get("value") is None))
+
+    return (isinstance(stored, dict) and isinstance(stored.get("scenario"), str)
+            and number(stored.get("sim_s")) and number(stored.get("wall_s"))
+            and stored.get("status") in ("ok", "diverged", "error")
+            and (stored.get("error") is None or isinstance(stored.get("error"), str))
+            and isinstance(stored.get("metrics"), dict)
+            and all(isinstance(k, str) and (number(v) or v is None) for k, v in stored["metrics"].items())
+            and isinstance(stored.get("checks"), list) and all(check(c) for c in stored["checks"]))

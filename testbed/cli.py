@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import re
 import signal
 import sys
@@ -55,10 +56,10 @@ def _parser() -> argparse.ArgumentParser:
 
 def _run_one(name: str, overrides, out: str | None, show_progress: bool):
     scenario = api.load(name, overrides)
-    return _run_loaded(scenario, Path(out) if out else Path("runs") / f"{trace.file_stem(scenario.name)}.rrd", show_progress)
+    return _run_loaded(scenario, out or Path("runs") / f"{trace.file_stem(scenario.name)}.rrd", show_progress)
 
 
-def _run_loaded(scenario, out_path: Path, show_progress: bool):
+def _run_loaded(scenario, out_path, show_progress: bool):
     duration = scenario.sim.duration_s
     with progress_bar(scenario.name, duration, "sim s") as bar:
         bar.disable = bar.disable or not show_progress
@@ -154,8 +155,9 @@ def _cmd_inspect(args) -> int:
     return EXIT_OK
 
 
-class _Terminated(Exception):
-    """SIGTERM, turned into an exception so that a trace being written is removed on the way out."""
+class _Terminated(BaseException):
+    """SIGTERM, turned into an exception (like KeyboardInterrupt, not an Exception that a stage's
+    error handling would catch) so that a trace being written is removed on the way out."""
 
 
 def _terminate(signum, frame):
@@ -182,6 +184,9 @@ def main(argv: list[str] | None = None) -> int:
     except _Terminated:
         print("terminated", file=sys.stderr)
         return 143
+    except BrokenPipeError:  # the reader of stdout went away (`testbed list | head -1`)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+        return EXIT_OK
     finally:
         if in_main_thread:
             signal.signal(signal.SIGTERM, previous)

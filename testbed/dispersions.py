@@ -22,6 +22,7 @@ scenario has for the field (its default when the file does not set it).
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -72,6 +73,8 @@ class Dispersion:
         bounds = values[2:] if self.kind == "truncated_normal" else values
         if self.kind in ("truncated_normal", "uniform", "log_uniform", "integer") and bounds[0] >= bounds[1]:
             raise InputError(where, f"low {bounds[0]:g} must be < high {bounds[1]:g}")
+        if self.kind in ("truncated_normal", "uniform", "log_uniform") and not math.isfinite(bounds[1] - bounds[0]):
+            raise InputError(where, "its width high - low overflows: narrow it")
         if self.relative and self.offset:
             raise InputError(schema.join(path, "relative"), "give relative or offset, not both")
         if (self.relative or self.offset or self.size is not None) and self.kind not in NUMERIC:

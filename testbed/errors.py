@@ -14,10 +14,21 @@ def quoted(value) -> str:
     return text if len(text) <= QUOTE_LIMIT else text[: QUOTE_LIMIT - 3] + "..."
 
 
+WORD_LIMIT = 96  # a path or a name in a message; a user's longer word is cut
+
+
+def one_line(text) -> str:
+    """`text` on one printable line: whitespace runs become one space, other control and
+    non-printable characters (terminal escapes, line separators) their escaped form, and any
+    word (a value, a key, a path) longer than WORD_LIMIT characters cut short."""
+    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in " ".join(str(text).split()))
+    return " ".join(w if len(w) <= WORD_LIMIT else w[: WORD_LIMIT - 3] + "..." for w in text.split(" "))
+
+
 class InputError(Exception):
     """Bad input: names the offending field and why; the CLI prints it on one line, exit 2."""
 
     def __init__(self, field: str, reason: str):
-        self.field = field
-        self.reason = " ".join(str(reason).split())  # one line, whatever the reason holds
-        super().__init__(f"{field}: {self.reason}")
+        self.field = one_line(field)  # a user's key may be part of it
+        self.reason = one_line(reason)  # one line, whatever the user's value held
+        super().__init__(f"{self.field}: {self.reason}")

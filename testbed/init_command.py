@@ -15,7 +15,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from testbed.commands import command
-from testbed.errors import InputError
+from testbed.errors import InputError, quoted
+from testbed.trace import check_creatable
 
 EXIT_OK = 0
 SCENARIO_FILE, CONTROLLER_FILE = "my_scenario.yaml", "my_controller.py"
@@ -150,6 +151,11 @@ def add_parser(subparsers) -> None:
 
 def _target_folder(folder: Path) -> None:
     """Create `folder`, or accept it if it is an empty folder; refuse anything else."""
+    try:
+        if not folder.exists():
+            check_creatable(folder.resolve() / CONTROLLER_FILE, str(folder))
+    except (OSError, ValueError) as exc:
+        raise InputError(quoted(str(folder)), f"is not a usable folder name: {getattr(exc, 'strerror', None) or exc}") from None
     if folder.exists() and not folder.is_dir():
         raise InputError(str(folder), "exists and is not a folder")
     if folder.is_dir() and any(folder.iterdir()):

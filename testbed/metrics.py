@@ -119,6 +119,8 @@ def energy_drift_rel(run) -> float:
 @metric("max_omega_error_rad_s", applies=lambda s: s.reference is not None)
 def max_omega_error_rad_s(run) -> float:
     """max over samples of |w_truth - w_reference| (body frame) [rad/s]."""
+    if run.reference_error:
+        raise ValueError(run.reference_error)
     return float(np.max(np.linalg.norm(run.recorder["reference/omega_error"], axis=1)))
 
 

@@ -220,24 +220,46 @@ def _is_builtin(stage_object) -> bool:
     return type(stage_object).__module__.startswith("testbed.")
 
 
+def _returns_nothing(stage_object) -> bool:
+    """A built-in stage that always returns nothing (an empty slot): the tick skips it."""
+    return _is_builtin(stage_object) and getattr(type(stage_object), "returns_nothing", False)
+
+
 class Pipeline:
     """One control tick: run the four stages in order and hand the command to the plant.
 
     A stage that raises, or a plug-in stage whose output fails its `OutputCheck`, stops the
-    run with `StageFailed` naming the stage, the time and the reason."""
+    run with `StageFailed` naming the stage, the time and the reason. The tick builds
+    nothing it does not need: a built-in empty slot (`none`, which returns nothing) is not
+    called, a built-in stage's output is not checked, and the outputs stay where the stages
+    left them (`measurement`, `estimate`, `demand`, `command`) until `signals()` gathers
+    them for a trace sample."""
 
     def __init__(self, sensor, estimator, law, allocator, checks: dict | None = None):
         self.sensor, self.estimator, self.law, self.allocator = sensor, estimator, law, allocator
+        self.measurement: dict[str, np.ndarray] = {}
+        self.estimate: dict[str, np.ndarray] = {}
+        self.demand: dict[str, np.ndarray] = {}
         self.command: dict[str, np.ndarray] = {}
         # open-loop allocators ignore the actuator read-outs: skip reading them
         self._needs_actuators = getattr(allocator, "needs_actuators", True)
         self.checks = checks or {}
+        self._sensing, self._estimating, self._controlling, self._allocating = (
+            not _returns_nothing(stage_object) for stage_object in (sensor, estimator, law, allocator))
+        self._sensor_check, self._estimator_check, self._law_check, self._allocator_check = (
+            self.checks.get(slot) for slot in SLOTS)
 
     @classmethod
     def from_config(cls, configs: dict, ctx: StageContext, actuators: dict | None = None) -> "Pipeline":
         """The four stages of `configs` (slot -> (name, params)); plug-in stages get an
         `OutputCheck` (an allocator's command keys take their shapes from `actuators`)."""
-        stages = [build(slot, *configs[slot], ctx) for slot in SLOTS]
+        stages = []
+        for slot in SLOTS:
+            try:
+                stages.append(build(slot, *configs[slot], ctx))
+            except (ArithmeticError, np.linalg.LinAlgError) as exc:  # parameters too extreme to build
+                raise InputError(f"pipeline.{slot}", f"{configs[slot][0]}: its parameters cannot be built: "
+                                                     f"{type(exc).__name__}: {exc}") from None
         checks = {}
         for slot, stage_object in zip(SLOTS, stages):
             if _is_builtin(stage_object):
@@ -256,21 +278,30 @@ class Pipeline:
     def stages(self) -> dict:
         return dict(zip(SLOTS, (self.sensor, self.estimator, self.law, self.allocator)))
 
-    def tick(self, t: float, plant) -> dict[str, dict[str, np.ndarray]]:
+    def tick(self, t: float, plant) -> None:
+        """Sensor, estimator, law and allocator at time t, then the command to the plant."""
         slot = "sensor"
         try:
-            measurement = self.sensor.measure(t, plant)
-            self._check(slot, t, measurement)
+            if self._sensing:
+                self.measurement = self.sensor.measure(t, plant)
+                if self._sensor_check is not None:
+                    self._sensor_check(t, self.measurement)
             slot = "estimator"
-            estimate = self.estimator.estimate(t, measurement, self.command)
-            self._check(slot, t, estimate)
+            if self._estimating:
+                self.estimate = self.estimator.estimate(t, self.measurement, self.command)
+                if self._estimator_check is not None:
+                    self._estimator_check(t, self.estimate)
             slot = "law"
-            demand = self.law.torque(t, estimate)
-            self._check(slot, t, demand)
+            if self._controlling:
+                self.demand = self.law.torque(t, self.estimate)
+                if self._law_check is not None:
+                    self._law_check(t, self.demand)
             slot = "allocator"
-            actuators = plant.actuator_state() if self._needs_actuators else {}
-            self.command = self.allocator.allocate(t, demand, estimate, actuators)
-            self._check(slot, t, self.command)
+            if self._allocating:
+                actuators = plant.actuator_state() if self._needs_actuators else {}
+                self.command = self.allocator.allocate(t, self.demand, self.estimate, actuators)
+                if self._allocator_check is not None:
+                    self._allocator_check(t, self.command)
             plant.apply(self.command)
         except StageFailed:
             raise
@@ -278,12 +309,11 @@ class Pipeline:
             stage_object = getattr(self, slot)
             raise StageFailed(t, slot, getattr(stage_object, "type_name", type(stage_object).__name__),
                               f"{type(exc).__name__}: {exc}") from exc
-        return {"sensor": measurement, "estimator": estimate, "law": demand, "allocator": self.command}
 
-    def _check(self, slot: str, t: float, out) -> None:
-        check = self.checks.get(slot)
-        if check is not None:
-            check(t, out)
+    def signals(self) -> dict[str, dict[str, np.ndarray]]:
+        """The last tick's outputs by slot, as the trace records them."""
+        return {"sensor": self.measurement, "estimator": self.estimate, "law": self.demand,
+                "allocator": self.command}
 
 
 def params_dict(params) -> dict:

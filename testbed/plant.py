@@ -9,6 +9,8 @@ and their own measurements.
 
 from __future__ import annotations
 
+import math
+
 import mujoco
 import numpy as np
 
@@ -42,6 +44,12 @@ class Plant:
         self._bad = [(w, self.data.warning[w]) for w in (
             mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
             mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADCTRL)]
+        # the same four counters as one view of MuJoCo's array, read once a step
+        kinds = sorted(int(kind) for kind, _ in self._bad)
+        if kinds != list(range(kinds[0], kinds[0] + len(kinds))):
+            raise RuntimeError(f"MuJoCo's bad-state warnings are not contiguous: {kinds}")
+        self._bad_counts = self.data.warning.number[kinds[0]:kinds[-1] + 1]
+        self._qvel = self.data.qvel
         self.record_energy = False  # the runner turns it on where no actuator does work
 
     # --- state -------------------------------------------------------------------------
@@ -84,16 +92,20 @@ class Plant:
     # --- stepping ----------------------------------------------------------------------
     def step(self, nstep: int) -> None:
         """Advance `nstep` physics steps; raise SimulationDiverged instead of MuJoCo's reset."""
-        t0 = self.time  # MuJoCo's reset on a bad state also resets data.time
-        mujoco.mj_step(self.model, self.data, nstep=nstep)
+        t0 = self.data.time  # MuJoCo's reset on a bad state also resets data.time
+        mujoco.mj_step(self.model, self.data, nstep)
+        # plain floats: a sum is NaN or infinite when any velocity is (or overflows)
+        if any(self._bad_counts.tolist()) or not math.isfinite(sum(self._qvel.tolist())):
+            self._diverged(t0, nstep)
+
+    def _diverged(self, t0: float, nstep: int) -> None:
         for kind, stat in self._bad:
             if stat.number:
                 said = f" ({_mujoco_warnings[-1]})" if _mujoco_warnings else ""
                 _mujoco_warnings.clear()
                 raise SimulationDiverged(t0, f"MuJoCo {kind.name}: NaN, Inf or huge value "
                                              f"within {nstep} steps after this time{said}")
-        if not np.isfinite(self.data.qvel).all():
-            raise SimulationDiverged(t0, "non-finite velocity")
+        raise SimulationDiverged(t0, "non-finite velocity")
 
     # --- what subclasses refine ---------------------------------------------------------
     def initialise(self, initial) -> None:

@@ -26,6 +26,7 @@ import traceback
 from pathlib import Path
 
 from testbed.errors import InputError
+from testbed.math.validation import existing_file
 from testbed.registry import DuplicateName, restore, snapshot
 
 BUILTIN_PACKAGES = ("testbed.stages", "testbed.systems")
@@ -53,13 +54,14 @@ def load_plugins(entries: list[str], base: Path, field: str = "plugins") -> None
     """Import a scenario's plug-ins: `base`-relative .py files or module names, each once per process."""
     discover()
     for i, entry in enumerate(entries):
-        path = (base / entry).resolve() if entry.endswith(".py") else None
+        path = base / entry if entry.endswith(".py") else None
         if path is not None:
-            if not path.is_file():
+            if not existing_file(f"{field}[{i}]", path):
                 raise InputError(f"{field}[{i}]", f"no such plug-in file: {path}")
+            path = path.resolve()
             _load(f"{field}[{i}]", str(path), lambda p=path: _import_file(p), where=str(path))
         else:
-            if importlib.util.find_spec(entry.split(".")[0]) is None:
+            if not entry.replace(".", "").replace("_", "").isalnum() or importlib.util.find_spec(entry.split(".")[0]) is None:
                 raise InputError(f"{field}[{i}]", f"no module named {entry!r} (a file needs the .py ending)")
             _load(f"{field}[{i}]", entry, lambda e=entry: importlib.import_module(e), where=entry)
 

@@ -37,7 +37,7 @@ class Registry:
     def lookup(self, name: Any, field: str) -> Any:
         """The entry called `name`; else InputError naming `field` and the known names."""
         if not isinstance(name, str) or name not in self._entries:
-            raise InputError(field, f"unknown {self.kind} {name!r} (one of {', '.join(self.names())})")
+            raise InputError(field, f"unknown {self.kind} {quoted(name)} (one of {', '.join(self.names())})")
         return self._entries[name]
 
     def load(self, config, path: str, key: str, schema_of, keep_key: bool = False):

@@ -6,6 +6,7 @@ the state at t, hold its command (zero-order hold) for the Tc / dt physics steps
 
 from __future__ import annotations
 
+import contextlib
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,6 +31,7 @@ class RunData:
     statistics: dict
     description: object
     momentum_scale: float
+    reference_error: str | None = None  # why the reference signals are missing, if they are
     # figures derived from the trace that several metrics share (see `shared`)
     _shared: dict = field(default_factory=dict)
 
@@ -72,19 +74,34 @@ class RunResult:
 
 
 def prepare(scenario):
-    """Build the plant, the pipeline and the reference: every design-time check happens here."""
+    """Build the plant, the pipeline and the reference: every design-time check happens here.
+
+    Parameters so extreme that building from them overflows or breaks a factorisation are bad
+    input, named by the part being built (model, pipeline slot, reference)."""
     references_registry.check_system(scenario)
-    plant = systems_registry.make_plant(scenario)
-    plant.record_energy = scenario.stages["allocator"][0] == "none"
-    plant.initialise(scenario.initial)
-    ctx = stage_context(scenario, plant.locked_inertia(), plant.description())
-    pipeline = Pipeline.from_config(scenario.stages, ctx, plant.actuators)
+    with np.errstate(all="raise"), _refused_as("model"):
+        plant = systems_registry.make_plant(scenario)
+        plant.record_energy = scenario.stages["allocator"][0] == "none"
+        plant.initialise(scenario.initial)
+        ctx = stage_context(scenario, plant.locked_inertia(), plant.description())
+    with np.errstate(all="raise"):
+        pipeline = Pipeline.from_config(scenario.stages, ctx, plant.actuators)
     output = getattr(pipeline.allocator, "output", None)
     if output is not None and output not in plant.actuators:
         raise InputError("pipeline.allocator.type", f"{scenario.stages['allocator'][0]} commands {output}, "
                          f"which model.system {scenario.system} does not have")
-    reference = references_registry.prepare(scenario, plant) if scenario.reference else None
+    with np.errstate(all="raise"), _refused_as("reference"):
+        reference = references_registry.prepare(scenario, plant) if scenario.reference else None
     return plant, pipeline, reference
+
+
+@contextlib.contextmanager
+def _refused_as(field: str):
+    """Arithmetic and linear-algebra failures while building from parameters: InputError(field)."""
+    try:
+        yield
+    except (ArithmeticError, np.linalg.LinAlgError) as exc:
+        raise InputError(field, f"its parameters cannot be built: {type(exc).__name__}: {exc}") from None
 
 
 def stage_context(scenario, inertia, description=None) -> StageContext:
@@ -112,7 +129,7 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     sim = scenario.sim
     n_ticks = round(sim.duration_s / sim.control_period_s)
     trace_every = round(sim.trace_period_s / sim.control_period_s)
-    recorder = Recorder(n_ticks // trace_every + 1)
+    recorder = Recorder(-(-n_ticks // trace_every) + 1)  # the samples on the grid and the final state
     momentum_scale = plant.momentum_scale()
     status, error = "ok", None
     try:
@@ -124,6 +141,8 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
         status, error = "diverged", str(exc)
     except StageFailed as exc:
         status, error = "error", str(exc)
+    except FloatingPointError as exc:  # the plant's own read-outs overflowed: the state blew up
+        status, error = "diverged", str(SimulationDiverged(plant.time, f"{exc} in the plant's read-outs"))
     if recorder.count:
         for key, values in plant.derived_signals(recorder).items():
             recorder.add_series(key, values)
@@ -131,9 +150,13 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
                                         if hasattr(stage, "statistics")},
                    plant.description(), momentum_scale)
     if reference is not None and recorder.count > 1:
-        omega_ref = reference(recorder.time, recorder)
-        recorder.add_series("reference/omega", omega_ref)
-        recorder.add_series("reference/omega_error", recorder["truth/omega"] - omega_ref)
+        try:
+            with np.errstate(all="ignore"):
+                omega_ref = reference(recorder.time, recorder)
+            recorder.add_series("reference/omega", omega_ref)
+            recorder.add_series("reference/omega_error", recorder["truth/omega"] - omega_ref)
+        except (ValueError, ArithmeticError) as exc:  # e.g. too short a trace to interpolate
+            data.reference_error = f"the reference could not be evaluated: {exc}"
     values, why = metrics.compute_all(data) if recorder.count > 1 else ({}, {})
     checks = metrics.evaluate_checks(scenario, values, why)
     result = RunResult(scenario.name, recorder.time[-1] if recorder.count else 0.0, 0.0, status, error,
@@ -149,20 +172,20 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
 
 
 def _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress) -> None:
+    """Tick k: the pipeline at t = k Tc, a trace sample of the stages' outputs and the truth
+    every `trace_every` ticks, then Tc / dt physics steps; the truth alone at the end (always)."""
     steps = sim.steps_per_tick
     tc = sim.control_period_s
     report_every = max(1, n_ticks // 200)
-    for k in range(n_ticks + 1):
+    tick, step = pipeline.tick, plant.step
+    for k in range(n_ticks):
         t = k * tc
-        sample = k % trace_every == 0
-        if k == n_ticks:
-            if sample:
-                recorder.sample(t, {"truth": plant.truth()})
-            break
-        signals = pipeline.tick(t, plant)
-        if sample:
+        tick(t, plant)
+        if k % trace_every == 0:
+            signals = pipeline.signals()
             signals["truth"] = plant.truth()
             recorder.sample(t, signals)
-        plant.step(steps)
+        step(steps)
         if progress is not None and k % report_every == 0:
             progress(k / n_ticks)
+    recorder.sample(n_ticks * tc, {"truth": plant.truth()})  # the final state, on the trace grid or not

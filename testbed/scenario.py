@@ -27,7 +27,7 @@ import numpy as np
 
 from testbed import metrics, pipeline, references_registry, schema, systems_registry
 from testbed.errors import InputError, quoted
-from testbed.math.validation import unit_quaternion
+from testbed.math.validation import existing_file, unit_quaternion
 from testbed.plugins import discover, load_plugins
 from testbed.scenario_yaml import read_yaml, yaml_load
 from testbed.schema import param
@@ -166,10 +166,10 @@ def parse(data: dict, source: str = "") -> Scenario:
 def resolve_path(name_or_path: str) -> Path:
     """A scenario file by path, or by name from the project's scenarios/ folder."""
     path = Path(name_or_path)
-    if path.is_file():
+    if existing_file("scenario", path):
         return path
     candidate = SCENARIO_DIR / (name_or_path if name_or_path.endswith(".yaml") else f"{name_or_path}.yaml")
-    if candidate.is_file():
+    if existing_file("scenario", candidate):
         return candidate
     raise InputError("scenario", f"no such file or scenario name: {name_or_path}")
 

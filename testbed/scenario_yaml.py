@@ -84,11 +84,15 @@ def read_yaml(path: Path) -> dict:
     """A scenario file's top-level mapping (see module doc for what is refused)."""
     where = str(path)
     try:
-        raw = path.read_bytes()
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:  # refused without reading it
+            raise InputError(where, f"is {size} bytes; a scenario file may hold at most {MAX_FILE_BYTES}")
+        with path.open("rb") as handle:
+            raw = handle.read(MAX_FILE_BYTES + 1)  # a file that grows meanwhile is still capped
     except OSError as exc:
         raise InputError(where, f"cannot read the file: {exc.strerror}") from None
     if len(raw) > MAX_FILE_BYTES:
-        raise InputError(where, f"is {len(raw)} bytes; a scenario file may hold at most {MAX_FILE_BYTES}")
+        raise InputError(where, f"holds more than {MAX_FILE_BYTES} bytes; a scenario file may hold at most that")
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:

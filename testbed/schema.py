@@ -18,6 +18,10 @@ from testbed.errors import InputError, quoted
 
 _MISSING = dataclasses.MISSING
 
+# Units are in the key names; a mass or an inertia must also lie where MuJoCo's compiler and
+# the squares in the dynamics stay exact: from a gyro rotor's to far beyond a space station's.
+UNIT_RANGES = {"_kg": (1e-6, 1e12), "_kg_m2": (1e-9, 1e12)}
+
 
 def param(default=_MISSING, *, gt=None, ge=None, lt=None, le=None, length=None, doc=""):
     """A schema field: default (a list default is copied per instance), bounds, vector length."""
@@ -64,7 +68,10 @@ def _convert(tp, value, path: str, meta: dict):
     if tp is float:
         if not is_number(value):
             raise InputError(path, f"must be a number, got {quoted(value)}")
-        value = float(value)
+        try:
+            value = float(value)
+        except OverflowError:  # an integer too large for a float
+            raise InputError(path, f"must be finite, got {quoted(value)}") from None
         if not math.isfinite(value):
             raise InputError(path, f"must be finite, got {quoted(value)}")
         _check_bounds(value, path, meta)
@@ -72,6 +79,8 @@ def _convert(tp, value, path: str, meta: dict):
     if tp is int:
         if isinstance(value, bool) or not isinstance(value, int):
             raise InputError(path, f"must be an integer, got {quoted(value)}")
+        if abs(value) > 2**63 - 1:  # what numpy and the seeds can hold
+            raise InputError(path, f"must fit in 64 bits, got {quoted(value)}")
         _check_bounds(value, path, meta)
         return value
     if tp is bool:
@@ -96,6 +105,25 @@ def _convert(tp, value, path: str, meta: dict):
         _, val_tp = get_args(tp)
         return {str(k): _convert(val_tp, v, join(path, str(k)), meta) for k, v in value.items()}
     raise TypeError(f"schema type {tp!r} at {path} is not supported")
+
+
+def _check_unit_range(name: str, value, path: str) -> None:
+    """Every number of a field whose name ends in a unit of UNIT_RANGES lies in its range."""
+    suffix = next((u for u in sorted(UNIT_RANGES, key=len, reverse=True) if name.endswith(u)), None)
+    if suffix is None or value is None:
+        return
+    low, high = UNIT_RANGES[suffix]
+    for number in _numbers(value):
+        if not low <= abs(number) <= high and number != 0:
+            raise InputError(path, f"must lie in [{low:g}, {high:g}] in magnitude ({suffix[1:]}), got {number:g}")
+
+
+def _numbers(value):
+    if isinstance(value, (list, tuple)):
+        for item in value:
+            yield from _numbers(item)
+    elif is_number(value):
+        yield float(value)
 
 
 def _check_bounds(value, path: str, meta: dict) -> None:
@@ -127,6 +155,7 @@ def load(cls, data, path: str = ""):
         fpath = join(path, name)
         if name in data:
             kwargs[name] = _convert(hints[name], data[name], fpath, dict(f.metadata))
+            _check_unit_range(name, kwargs[name], fpath)
         elif f.default is _MISSING and f.default_factory is _MISSING:
             raise InputError(fpath, "is required")
     obj = cls(**kwargs)
@@ -158,7 +187,10 @@ def describe(cls, path: str = "") -> list[tuple[str, str, str]]:
 
 def whole_multiple(value: float, unit: float, path: str, unit_name: str) -> int:
     """How many `unit`s make `value`; refuses a value that is not a whole multiple."""
-    n = round(value / unit)
+    ratio = value / unit
+    if not math.isfinite(ratio) or ratio > 1e15:  # beyond any run's step count (and float's integers)
+        raise InputError(path, f"{value:g} s is {ratio:.3g} times {unit_name} = {unit:g} s: far too many")
+    n = round(ratio)
     if n < 1 or abs(n * unit - value) > 1e-9 * max(value, unit):
         raise InputError(path, f"must be a whole multiple of {unit_name} = {unit:g} s, got {value:g} s")
     return n

@@ -92,9 +92,7 @@ def output_folder(args, name: str) -> Path:
     from testbed.trace import file_stem, output_path
 
     out = Path(args.out) if args.out else Path("runs") / f"{file_stem(name)}_sweep"
-    if out.exists() and not out.is_dir():
-        raise InputError("--out", f"{out} is a file; a sweep writes a folder (its table and traces)")
-    output_path(out / f"{file_stem(name)}.csv")  # probes that a file can be created there
+    output_path(out / f"{file_stem(name)}.csv")  # probes that a file can be created there (not under a file)
     return out
 
 

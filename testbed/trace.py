@@ -21,13 +21,14 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from testbed.errors import InputError
+from testbed.errors import InputError, quoted
 from testbed.recorder import Recorder, Trace
 
 APP_ID = "gyrodyne-testbed"
 RESULT_ENTITY = "run/result"
 TIMELINE = "sim_time"
 SCALARS = "Scalars:scalars"
+NAME_MAX = 255  # bytes in one file or folder name (ext4 and most others)
 
 # Unit and component labels by signal name; a signal not listed is plotted unlabelled.
 UNITS = {
@@ -106,49 +107,72 @@ def recording_to(path, application: str = APP_ID):
     leave a whole file."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    handle, partial = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".partial")
-    os.close(handle)
-    rec = rr.RecordingStream(application, recording_id=str(uuid.uuid4()))
+    partial, rec = None, None
     try:
+        handle, partial = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".partial")
+        os.close(handle)
+        rec = rr.RecordingStream(application, recording_id=str(uuid.uuid4()))
         rec.save(partial)  # before logging, so nothing is buffered for a viewer
         yield rec
         rec.flush()
         rec.disconnect()
+        os.chmod(partial, 0o666 & ~_umask())  # mkstemp made it private; a trace is an ordinary file
         os.replace(partial, path)
     except BaseException:
-        rec.disconnect()
-        Path(partial).unlink(missing_ok=True)
+        if rec is not None:
+            rec.disconnect()
+        if partial is not None:
+            Path(partial).unlink(missing_ok=True)
         raise
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def file_stem(name: str) -> str:
-    """A scenario name made safe as a file name: no separators, no leading dots, no '..'."""
+    """A scenario name made safe as a file name: no separators, no leading dots, no '..', at
+    most 100 characters (file systems take 255 bytes, and a suffix and a temporary part follow)."""
     stem = re.sub(r"[^A-Za-z0-9._-]+", "_", name).lstrip(".")
-    return stem.replace("..", "_") or "run"
+    return stem.replace("..", "_")[:100] or "run"
 
 
 def output_path(out, field: str = "--out") -> Path:
-    """Where a trace may be written, checked before any run: not a directory or a device, its
-    folder creatable and writable. A symlink is written through (its target is replaced)."""
-    path = Path(out).expanduser()
-    if str(out).endswith(os.sep) or path.is_dir():
-        raise InputError(field, f"{path} is a directory; give a file name such as {path / 'run.rrd'}")
-    if path.exists() and not path.is_file():
-        raise InputError(field, f"{path} is not a regular file")
-    path = path.resolve()
-    for ancestor in [path.parent, *path.parent.parents]:
-        if ancestor.exists():
-            if not ancestor.is_dir():
-                raise InputError(field, f"{ancestor} is a file, so {path} cannot be created")
-            break
-    try:  # the one sure test: create a file where the trace will go
-        path.parent.mkdir(parents=True, exist_ok=True)
-        handle, probe = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".probe")
-        os.close(handle)
-        os.unlink(probe)
+    """Where a trace may be written, checked before any run and creating nothing: not a
+    directory (a trailing separator means one) or a device, not under a file, its nearest
+    existing folder writable, a name the file system takes. A symlink is written through (its
+    target is replaced, the link stays)."""
+    text = str(out)
+    try:
+        path = Path(text).expanduser()
+        if text.endswith(("/", os.sep)) or path.is_dir():
+            raise InputError(field, f"{quoted(text)} is a directory; give a file name such as run.rrd")
+        if path.exists() and not path.is_file():
+            raise InputError(field, f"{quoted(text)} is not a regular file")
+        path = path.resolve(strict=False)
+        check_creatable(path, field)
     except OSError as exc:
-        raise InputError(field, f"cannot write in {path.parent}: {exc.strerror}") from None
+        raise InputError(field, f"cannot write {quoted(text)}: {exc.strerror}") from None
+    except (RuntimeError, ValueError) as exc:  # a symlink loop, a NUL byte in the name
+        raise InputError(field, f"cannot write {quoted(text)}: {exc}") from None
     return path
+
+
+def check_creatable(path: Path, field: str) -> None:
+    """`path` (absolute) can be created without creating anything now: every name fits the file
+    system (NAME_MAX bytes, no NUL), its nearest existing folder is a folder and writable."""
+    for part in path.parts[1:]:
+        if len(part.encode()) > NAME_MAX or "\0" in part:
+            raise InputError(field, f"{quoted(part)} is not a name the file system takes (at most {NAME_MAX} bytes)")
+    existing = next(a for a in [path.parent, *path.parent.parents] if a.exists())
+    if not existing.is_dir():
+        raise InputError(field, f"{quoted(str(existing))} is a file, so {quoted(str(path))} cannot be created")
+    # the one sure test: create (and remove) a file of the trace's name length where it will go
+    handle, probe = tempfile.mkstemp(dir=existing, prefix=f".{path.name[:100]}.", suffix=".partial")
+    os.close(handle)
+    os.unlink(probe)
 
 
 def _write_streams(rec, recorder: Recorder, result: dict, scene: dict | None) -> None:

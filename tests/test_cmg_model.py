@@ -198,7 +198,8 @@ def test_servo_gains_scale_with_gimbal_axis_inertia():
 @pytest.mark.parametrize("field, value", [
     ("alpha_deg", 97.4), ("rotor_momentum_nms", -1.0), ("inertia_kg_m2", [100.0, 100.0, 300.0]),
     ("gimbal_angles_deg", [0.0, 1.0]), ("rotor_transverse_ratio", 0.3),
-    ("gimbal_inertia_kg_m2", [0.05, 0.01, 0.03])])
+    ("gimbal_inertia_kg_m2", [0.05, 0.01, 0.03]), ("servo_model", "pid"), ("gimbal_torque_limit_nm", 0.0),
+    ("gimbal_rate_limit_deg_s", -5.0)])
 def test_bad_parameters_raise_input_error(field, value):
     discover()
     with pytest.raises(InputError) as error:

@@ -321,5 +321,5 @@ def test_the_readme_python_api_example_runs(tmp_path, monkeypatch, capsys):
     (code,) = re.findall(r"^```python\n(.*?)^```", section, re.M | re.S)
     monkeypatch.chdir(tmp_path)
     exec(compile(code, "README.md (Python API)", "exec"), {})
-    assert capsys.readouterr().out.startswith("ok True 4.86")
+    assert capsys.readouterr().out.startswith("ok True 4.93")  # reorient_minimax's peak rate (its pin)
     assert (tmp_path / "minimax6.rrd").is_file()

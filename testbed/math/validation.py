@@ -4,10 +4,12 @@ raises InputError naming the field and the reason (never silently repairs bad in
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
 from testbed.errors import InputError, quoted
+from testbed.schema import UNIT_RANGES
 
 
 def finite_number(field: str, value) -> float:
@@ -102,10 +104,8 @@ def principal_moments(field: str, inertia) -> np.ndarray:
     return values
 
 
-# What a body's mass properties may be: from a gyro rotor's to far beyond a space station's,
-# inside the range where MuJoCo's compiler and the squares in the dynamics stay exact.
-INERTIA_RANGE_KG_M2 = (1e-9, 1e12)
-MASS_RANGE_KG = (1e-6, 1e12)
+INERTIA_RANGE_KG_M2 = UNIT_RANGES["_kg_m2"]
+MASS_RANGE_KG = UNIT_RANGES["_kg"]
 
 
 def check_in_range(field: str, value: float, bounds: tuple[float, float], unit: str) -> float:
@@ -134,6 +134,8 @@ def check_positive_definite(matrix, path: str, symmetric: bool) -> np.ndarray:
     m = np.asarray(matrix, float)
     if m.shape != (3, 3) or not np.all(np.isfinite(m)):
         raise InputError(path, "must be a 3x3 matrix of finite numbers")
+    if np.abs(m).max() > 1e12:  # beyond any gain or inertia here, and where eigvalsh overflows
+        raise InputError(path, f"entries must lie within +-1e12, got {np.abs(m).max():g}")
     if symmetric and not np.allclose(m, m.T, rtol=0, atol=1e-12 * np.abs(m).max()):
         raise InputError(path, "must be a symmetric matrix")
     smallest = float(np.linalg.eigvalsh((m + m.T) / 2)[0])
@@ -153,3 +155,12 @@ def inertia_matrix(field: str, inertia) -> np.ndarray:
     if np.abs(a - a.T).max() > 1e-12 * np.abs(a).max():
         raise InputError(field, "must be symmetric")
     return check_positive_definite(a, field, symmetric=True)
+
+
+def existing_file(field: str, path) -> bool:
+    """Whether `path` names an existing regular file; a name the file system cannot take (too
+    long, a NUL byte) is refused rather than raising."""
+    try:
+        return Path(path).is_file()
+    except (OSError, ValueError) as exc:
+        raise InputError(field, f"{quoted(str(path))} is not a usable file name: {getattr(exc, 'strerror', None) or exc}") from None

@@ -120,7 +120,7 @@ class LebedevObserverParams:
     poles_per_s: list[float] = param(length=3, doc="real parts of the wanted eig(A - l C); repeats allowed")
     poles_imag_per_s: list[float] = param([0.0, 0.0, 0.0], length=3, doc="imaginary parts (conjugate pairs)")
     startup_s: float = param(ge=0, doc="open-loop start-up phase (section 3) before control begins")
-    max_substep_s: float = param(0.05, gt=0, doc="RK4 substep of the observer ODE within a control period")
+    max_substep_s: float = param(0.05, ge=1e-4, doc="RK4 substep of the observer ODE within a control period")
     design_momentum_nms: list[float] | None = param(None, length=3, doc=(
         "internal (CMG) momentum H at the operating point, body axes: the closed-loop gain then places "
         "eig(A + I^-1 [H x] - l C); none: the paper's rigid body"))

@@ -9,6 +9,7 @@ reuse it for their actuators.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from math import sin
 
 import numpy as np
 
@@ -19,7 +20,10 @@ ZERO3 = [0.0, 0.0, 0.0]
 
 
 class _EmptySlot:
-    """A slot left empty: it takes no parameters and returns nothing."""
+    """A slot left empty: it takes no parameters and returns nothing (so the pipeline does not
+    call it: `returns_nothing`)."""
+
+    returns_nothing = True
 
     def __init__(self, params, ctx):
         pass
@@ -53,15 +57,16 @@ class SinusoidProfile:
             raise InputError(path, "offset, amplitude, frequency_hz and phase_deg must have equal lengths")
         if self.stop_s is not None and self.stop_s <= self.start_s:
             raise InputError(f"{path}.stop_s", f"must be > start_s = {self.start_s:g}")
-        self._offset = np.array(self.offset)
-        self._amp = np.array(self.amplitude)
-        self._omega = 2 * np.pi * np.array(self.frequency_hz)
-        self._phase = np.deg2rad(self.phase_deg)
+        # (offset, amplitude, 2 pi f, phase [rad]) per component, as plain floats: a few
+        # components cost less in Python arithmetic than in numpy's calls
+        self._terms = list(zip(np.array(self.offset, float).tolist(), np.array(self.amplitude, float).tolist(),
+                               (2 * np.pi * np.array(self.frequency_hz)).tolist(),
+                               np.deg2rad(self.phase_deg).tolist()))
 
     def __call__(self, t: float) -> np.ndarray:
         if t < self.start_s or (self.stop_s is not None and t >= self.stop_s):
-            return np.zeros_like(self._offset)
-        return self._offset + self._amp * np.sin(self._omega * t + self._phase)
+            return np.zeros(len(self._terms))
+        return np.array([offset + amplitude * sin(omega * t + phase) for offset, amplitude, omega, phase in self._terms])
 
 
 @dataclass

@@ -3,6 +3,7 @@
 - model.py            `CmgRhombusParams` (the `model:` block) and `build` through MjSpec
 - cluster.py          the cluster geometry H(beta), dH/dbeta read from the compiled model
 - plant.py            joints and servos by name; the plant the runner steps
+- gimbal_servo.py     the gimbal-rate servos (intvelocity, feedforward) and where the momentum drift comes from
 - reduced_model.py    the reduced (gyrostat) model, reference `reduced_cmg`
 - momentum_envelope.py, envelope_command.py   the envelope and singular surfaces, `testbed envelope`
 - stages.py           the open-loop allocator `gimbal_rate_profile`
@@ -18,7 +19,7 @@ from testbed.systems_registry import system
 
 @system("cmg_rhombus", CmgRhombusParams)
 def make_plant(params: CmgRhombusParams, sim) -> CmgPlant:
-    return CmgPlant(build(params, sim.dt_s, sim.integrator), params.cancel_initial_momentum)
+    return CmgPlant(build(params, sim.dt_s, sim.integrator), params, sim.control_period_s)
 
 
 __all__ = ["ClusterGeometry", "CmgPlant", "CmgRhombus", "CmgRhombusParams", "build", "make_plant"]

@@ -24,6 +24,8 @@ from testbed.systems.cmg_rhombus.model import CmgRhombusParams, build
 from testbed.systems.cmg_rhombus.momentum_envelope import EXTERNAL, singular_momenta, write_envelope_rrd
 
 EXIT_OK = 0
+ALPHA_RANGE_DEG = (0.01, 89.99)  # at 0 or 90 deg the rhombus folds flat: the gimbal axes coincide
+H_RANGE_NMS = (1e-6, 1e9)        # rotor momenta the compiled model (rotor inertia h / Omega) can hold
 MAX_POINTS = 200_000  # directions per surface: 8 surfaces of this many points stay well under a GB
 
 
@@ -50,13 +52,13 @@ def axis_extents(axes: np.ndarray, h: float) -> np.ndarray:
 
 def run(args) -> int:
     alpha = args.alpha_deg
-    if not math.isfinite(alpha) or not 0.0 < alpha < 90.0:
-        raise InputError("--alpha-deg", f"must lie in (0, 90) deg, got {alpha:g}")
-    if not math.isfinite(args.h) or args.h <= 0:
-        raise InputError("--h", f"must be a finite momentum > 0 N m s, got {args.h:g}")
+    if not (math.isfinite(alpha) and ALPHA_RANGE_DEG[0] <= alpha <= ALPHA_RANGE_DEG[1]):
+        raise InputError("--alpha-deg", f"must lie in [{ALPHA_RANGE_DEG[0]:g}, {ALPHA_RANGE_DEG[1]:g}] deg, got {alpha:g}")
+    if not (math.isfinite(args.h) and H_RANGE_NMS[0] <= args.h <= H_RANGE_NMS[1]):
+        raise InputError("--h", f"must lie in [{H_RANGE_NMS[0]:g}, {H_RANGE_NMS[1]:g}] N m s, got {args.h:g}")
     if not 1 <= args.points <= MAX_POINTS:
         raise InputError("--points", f"must be in [1, {MAX_POINTS}], got {args.points}")
-    out = output_path(Path(args.out) if args.out else Path("runs") / f"envelope_alpha{alpha:g}.rrd")
+    out = output_path(args.out or Path("runs") / f"envelope_alpha{alpha:g}.rrd")
     cluster = cluster_from_model(alpha, args.h)
     write_envelope_rrd(out, math.radians(alpha), cluster.h, args.points, axes=cluster.gimbal_axes)
     ext = axis_extents(cluster.gimbal_axes, cluster.h)

@@ -16,8 +16,10 @@ def _servo_commanded(scenario) -> bool:
 @metric("gimbal_rate_error_rel", applies=_servo_commanded)
 def gimbal_rate_error_rel(run) -> float:
     """max_i max_t |b'_i(t_k+1) - cmd_i(t_k)| / max_t |cmd_i|: servo tracking of the held command, after 0.1 s."""
-    rates = run.recorder["truth/gimbal_rate"][1:]
-    command = run.recorder["allocator/gimbal_rates"][:-1]  # held over (t_k, t_k+1]
-    keep = run.recorder.time[1:] > 0.1
+    # each trace sample holds the rate b'(t_k+1) and the command held over (t_k, t_k+1]
+    # (truth/gimbal_rate_command), so any trace period measures the end of a hold
+    rates = run.recorder["truth/gimbal_rate"]
+    command = run.recorder["truth/gimbal_rate_command"]
+    keep = run.recorder.time > 0.1
     scale = np.maximum(np.nanmax(np.abs(command), axis=0), 1e-12)
     return float(np.nanmax(np.abs(rates[keep] - command[keep]) / scale))

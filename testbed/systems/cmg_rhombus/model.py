@@ -2,11 +2,13 @@
 
 `CmgRhombusParams` is the scenario's `model:` block (units in the key names); `build`
 applies every field to the MJCF with MjSpec: the bus mass properties, the rhombus placement
-of the four gimbals (angle alpha), rotor and gimbal inertias, and the gimbal-rate and
-rotor-speed servo gains.
+of the four gimbals (angle alpha), rotor and gimbal inertias, the gimbal-rate and
+rotor-speed servo gains, and for the `feedforward` servo one motor per gimbal
+(gimbal_servo.py says what each servo model does).
 """
 
 from dataclasses import dataclass
+from typing import Literal
 
 import mujoco
 import numpy as np
@@ -20,6 +22,7 @@ from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTOR_SPEED_NUME
 
 GIMBAL_SERVOS = tuple(f"gimbal_rate{i}" for i in range(1, N_CMG + 1))
 ROTOR_SERVOS = tuple(f"rotor_speed{i}" for i in range(1, N_CMG + 1))
+GIMBAL_MOTORS = tuple(f"gimbal_torque{i}" for i in range(1, N_CMG + 1))  # kept for servo_model feedforward
 INITIAL_KEY = "initial"
 
 # RK4 stays accurate and stable for the servo modes when (rate x dt) is well below its
@@ -39,9 +42,17 @@ class CmgRhombusParams:
     rotor_transverse_ratio: rotor transverse inertia / spin inertia (0.5 for a thin disk).
     gimbal_inertia_kg_m2: gimbal frame principal inertia about (gimbal axis, spin axis at
         beta = 0, third axis).
-    servo_natural_frequency_rad_s, servo_damping_ratio: gimbal-rate servo w_n and zeta;
-        kp = J w_n^2, kv = 2 zeta w_n J with J the inertia about the gimbal axis (gimbal frame
-        + rotor transverse), so the servo's dynamics do not change with the inertias.
+    servo_model: `intvelocity` (MuJoCo's integrated-velocity servo alone, stiff) or
+        `feedforward` (the same servo, softer, plus a motor torque held over each control
+        tick that brings the gimbal rate to the command by the tick's end); gimbal_servo.py.
+    servo_natural_frequency_rad_s, servo_damping_ratio: the servo's PD loop, w_n (its
+        bandwidth) and zeta; kp = J w_n^2, kv = 2 zeta w_n J with J the inertia about the
+        gimbal axis (gimbal frame + rotor transverse), so the servo's dynamics do not change
+        with the inertias.
+    gimbal_torque_limit_nm: the most torque a gimbal motor gives (PD and feed-forward
+        together; MuJoCo clamps the joint's actuator torque), None: unlimited.
+    gimbal_rate_limit_deg_s: the largest gimbal-rate command a servo follows (commands are
+        clipped to it), None: unlimited.
     rotor_speed_time_constant_s: tau of the rotor speed loop; kv = Js / tau.
     gimbal_angles_deg: initial gimbal angles; the default is the zero-momentum, full-rank set.
     cancel_initial_momentum: start a zero-momentum spacecraft whatever its initial rate: the
@@ -54,14 +65,17 @@ class CmgRhombusParams:
     mass_kg: float = param(1000.0, gt=0)
     alpha_deg: float = param(float(np.degrees(np.arctan(np.sqrt(2.0)))), gt=0, lt=90)
     rotor_momentum_nms: float = param(50.0, gt=0, doc="h of each rotor at nominal speed")
-    rotor_speed_rpm: float = param(6000.0, gt=0)
+    rotor_speed_rpm: float = param(6000.0, ge=1.0, le=1e6)
     rotor_transverse_ratio: float = param(0.6, ge=0.5, doc="Jt / Js of the rotor (>= 0.5 for a rotor)")
     rotor_mass_kg: float = param(10.0, gt=0)
     gimbal_mass_kg: float = param(5.0, gt=0)
     gimbal_inertia_kg_m2: list[float] = param([0.03, 0.02, 0.02], length=3, gt=0)
     cmg_distance_m: float = param(0.5, gt=0)
+    servo_model: Literal["intvelocity", "feedforward"] = param("intvelocity")
     servo_natural_frequency_rad_s: float = param(316.0, gt=0)
     servo_damping_ratio: float = param(1.0, gt=0)
+    gimbal_torque_limit_nm: float | None = param(None, gt=0)
+    gimbal_rate_limit_deg_s: float | None = param(None, gt=0)
     rotor_speed_time_constant_s: float = param(0.02, gt=0)
     gimbal_angles_deg: list[float] = param([45.0, -45.0, -45.0, 45.0], length=4)
     cancel_initial_momentum: bool = param(False, doc="move the initial gimbal angles so that the total momentum is 0")
@@ -115,9 +129,13 @@ def build(params: CmgRhombusParams, dt: float, integrator: str = "RK4") -> mujoc
         speed = spec.actuator(ROTOR_SERVOS[i])
         speed.gainprm = _with_first(speed.gainprm, [rotor_kv])
         speed.biasprm = _with_first(speed.biasprm, [0.0, 0.0, -rotor_kv])
+        _apply_limits(spec, params, i)
+        if params.servo_model != "feedforward":
+            spec.delete(spec.actuator(GIMBAL_MOTORS[i]))  # the intvelocity servo has no motor
 
     spec.numeric(ROTOR_SPEED_NUMERIC).data = [omega_rotor]
-    _write_initial_key(spec, np.radians(params.gimbal_angles_deg), omega_rotor)
+    motors = N_CMG if params.servo_model == "feedforward" else 0
+    _write_initial_key(spec, np.radians(params.gimbal_angles_deg), omega_rotor, motors)
     return compile_model(spec)
 
 
@@ -127,13 +145,28 @@ def servo_gains(params: CmgRhombusParams, dt: float, gimbal_axis_inertia: float)
 
     kv damps the absolute gimbal rate (not the rate error), so a sinusoidal rate command of
     frequency w is tracked with a relative error of about 2 zeta w / w_n (0.4 % at 0.1 Hz
-    for the defaults); a steady rate is tracked exactly, with a constant angle lag."""
+    for the defaults); a steady rate is tracked exactly, with a constant angle lag. The
+    feedforward servo adds kv times the command to its held torque (gimbal_servo.py)."""
     w_n, zeta = params.servo_natural_frequency_rad_s, params.servo_damping_ratio
     if w_n * dt > MAX_SERVO_OMEGA_DT:
         raise InputError("model.servo_natural_frequency_rad_s",
                          f"w_n dt = {w_n * dt:.3f} exceeds {MAX_SERVO_OMEGA_DT}: "
                          "RK4 would be inaccurate or unstable")
     return gimbal_axis_inertia * w_n**2, 2.0 * zeta * w_n * gimbal_axis_inertia
+
+
+def _apply_limits(spec, params: CmgRhombusParams, i: int) -> None:
+    """The physical limits of gimbal i: the motor's torque (MuJoCo clamps the sum of the
+    actuator torques on the joint) and the rate command (clipped to the servo's ctrlrange)."""
+    limited = mujoco.mjtLimited.mjLIMITED_TRUE
+    if params.gimbal_torque_limit_nm is not None:
+        joint = spec.joint(GIMBALS[i])
+        joint.actfrclimited = limited
+        joint.actfrcrange = [-params.gimbal_torque_limit_nm, params.gimbal_torque_limit_nm]
+    if params.gimbal_rate_limit_deg_s is not None:
+        servo = spec.actuator(GIMBAL_SERVOS[i])
+        servo.ctrllimited = limited
+        servo.ctrlrange = np.radians([-params.gimbal_rate_limit_deg_s, params.gimbal_rate_limit_deg_s])
 
 
 def _with_first(array, values):
@@ -143,9 +176,10 @@ def _with_first(array, values):
     return out
 
 
-def _write_initial_key(spec, beta0, omega_rotor):
+def _write_initial_key(spec, beta0, omega_rotor, motors=0):
     """Keyframe "initial": bus at rest at the origin, gimbals at beta0 with servo activations
-    equal to beta0 (so the servos start without a position error), rotors at nominal speed."""
+    equal to beta0 (so the servos start without a position error), rotors at nominal speed,
+    the `motors` gimbal motors (feedforward servo) at zero torque."""
     key = spec.key(INITIAL_KEY)
     qpos = [0, 0, 0, 1, 0, 0, 0]
     qvel = [0.0] * 6
@@ -155,4 +189,4 @@ def _write_initial_key(spec, beta0, omega_rotor):
     key.qpos = qpos
     key.qvel = qvel
     key.act = list(beta0)
-    key.ctrl = [0.0] * 3 + [0.0] * N_CMG + [omega_rotor] * N_CMG
+    key.ctrl = [0.0] * 3 + [0.0] * N_CMG + [0.0] * motors + [omega_rotor] * N_CMG

@@ -1,7 +1,8 @@
 """The CMG spacecraft as a plant: gimbal-rate servos and ideal torques, cluster read-outs.
 
 `CmgRhombus` knows the compiled model's gimbal and rotor joints and servos by name;
-`CmgPlant` is what the runner steps and the sensors read.
+`CmgPlant` is what the runner steps and the sensors read; its gimbal servo
+(gimbal_servo.py) takes the gimbal-rate commands.
 """
 
 import mujoco
@@ -12,7 +13,18 @@ from testbed.free_bus import FreeBus
 from testbed.math.quaternion import quat_conj, quat_rotate
 from testbed.plant import Plant
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTORS, ClusterGeometry
-from testbed.systems.cmg_rhombus.model import GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS
+from testbed.systems.cmg_rhombus.gimbal_servo import FeedForwardServo, IntVelocityServo
+from testbed.systems.cmg_rhombus.model import GIMBAL_MOTORS, GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS
+
+
+def evenly_spaced(addresses) -> slice:
+    """The slice that picks `addresses` (evenly spaced, increasing) out of a MuJoCo array: a
+    read through it copies nothing, and a view through it can be kept and written."""
+    addresses = [int(a) for a in addresses]
+    steps = {b - a for a, b in zip(addresses, addresses[1:])}
+    if len(steps) != 1 or min(steps) <= 0:
+        raise ValueError(f"addresses {addresses} are not evenly spaced")
+    return slice(addresses[0], addresses[-1] + 1, steps.pop())
 
 
 MOMENTUM_NEWTON_STEPS = 30
@@ -33,22 +45,33 @@ class CmgRhombus(FreeBus):
         self.gimbal_actuator_ids = np.array([model.actuator(n).id for n in GIMBAL_SERVOS])
         self.gimbal_act_adr = model.actuator_actadr[self.gimbal_actuator_ids]
         self.rotor_actuator_ids = np.array([model.actuator(n).id for n in ROTOR_SERVOS])
+        names = {model.actuator(i).name for i in range(model.nu)}
+        # the feedforward servo's motors, when the model has them
+        self.gimbal_motor_ids = np.array([model.actuator(n).id for n in GIMBAL_MOTORS if n in names], dtype=int)
         self.initial_key_id = model.key(INITIAL_KEY).id
+        # the same addresses as slices (MuJoCo lays the four CMGs out alike)
+        self.gimbal_qpos = evenly_spaced(self.gimbal_qpos_adr)
+        self.gimbal_qvel = evenly_spaced(self.gimbal_qvel_adr)
+        self.rotor_qvel = evenly_spaced(self.rotor_qvel_adr)
+        self.gimbal_act = evenly_spaced(self.gimbal_act_adr)
+        self.gimbal_ctrl = evenly_spaced(self.gimbal_actuator_ids)
+        # the servos' rate commands, then the motors' torques when the model has them
+        self.gimbal_servo_ctrl = evenly_spaced(np.concatenate([self.gimbal_actuator_ids, self.gimbal_motor_ids]))
         # every dof that is not the bus free joint belongs to a gimbal or a rotor
         bus_dofs = set(range(self.qvel_adr, self.qvel_adr + 6))
         self.internal_dofs = np.array([i for i in range(model.nv) if i not in bus_dofs])
 
     def gimbal_angles(self, data):
         """Gimbal angles beta [rad], (4,)."""
-        return data.qpos[self.gimbal_qpos_adr].copy()
+        return data.qpos[self.gimbal_qpos].copy()
 
     def gimbal_rates(self, data):
         """Gimbal rates beta' [rad/s], (4,)."""
-        return data.qvel[self.gimbal_qvel_adr].copy()
+        return data.qvel[self.gimbal_qvel].copy()
 
     def rotor_rates(self, data):
         """Rotor speeds relative to their gimbals Omega [rad/s], (4,)."""
-        return data.qvel[self.rotor_qvel_adr].copy()
+        return data.qvel[self.rotor_qvel].copy()
 
     def set_gimbal_rate_command(self, data, rates):
         """Command gimbal rates [rad/s]; the servo integrates them into an angle set-point."""
@@ -97,19 +120,30 @@ class CmgRhombus(FreeBus):
 
 
 class CmgPlant(Plant):
-    """Truth adds gimbal angles and rates, rotor rates and the cluster momentum H (body frame)."""
+    """Truth adds gimbal angles and rates, the gimbal-rate command the servos held, rotor
+    rates and the cluster momentum H (body frame)."""
 
     actuators = {"body_torque": (3,), "gimbal_rates": (N_CMG,)}
 
-    def __init__(self, model, cancel_initial_momentum: bool = False):
+    def __init__(self, model, params, control_period: float):
+        """`params`: the validated CmgRhombusParams `model` was built from (its servo model and
+        limits, cancel_initial_momentum); `control_period` [s]: how long each command is held."""
         super().__init__(CmgRhombus(model))
         self.geometry = self.bus.geometry
-        self.cancel_initial_momentum = cancel_initial_momentum
+        self.cancel_initial_momentum = params.cancel_initial_momentum
+        rate_limit = None if params.gimbal_rate_limit_deg_s is None else np.radians(params.gimbal_rate_limit_deg_s)
+        if params.servo_model == "feedforward":
+            self.servo = FeedForwardServo(self.bus, model, self.data, params.servo_natural_frequency_rad_s,
+                                          params.servo_damping_ratio, control_period, rate_limit,
+                                          params.gimbal_torque_limit_nm)
+        else:
+            self.servo = IntVelocityServo(self.bus, self.data, rate_limit)
 
     def initialise(self, initial) -> None:
         self.bus.initialise(self.data, initial.omega, initial.quat)
         if self.cancel_initial_momentum:
             self._cancel_momentum()
+        self.servo.start(self.data)  # at the gimbal angles the case starts from
 
     def _cancel_momentum(self) -> None:
         """Newton steps on the gimbal angles, b <- b - J(b)^+ L (J = dH/db, SEEDS §004 eq. (18);
@@ -139,6 +173,7 @@ class CmgPlant(Plant):
         signals = super().truth()
         signals.update(gimbal_angle=self.bus.gimbal_angles(self.data),
                        gimbal_rate=self.bus.gimbal_rates(self.data),
+                       gimbal_rate_command=self.servo.held_command(self.data),
                        rotor_rate=self.bus.rotor_rates(self.data))
         return signals
 
@@ -155,9 +190,7 @@ class CmgPlant(Plant):
 
     def apply(self, command: dict[str, np.ndarray]) -> None:
         super().apply(command)
-        rates = command.get("gimbal_rates")
-        if rates is not None:
-            self.bus.set_gimbal_rate_command(self.data, rates)
+        self.servo.apply(self.data, command.get("gimbal_rates"))
 
     def internal_momentum_body(self) -> np.ndarray:
         return self.bus.internal_momentum_body(self.data)

@@ -68,9 +68,10 @@ class HingeState:
 class AkorLqrParams:
     """Cost of eq. 3: integral of beta11 x1^2 + beta22 x2^2 + u^2 / k."""
 
-    beta11: float = param(gt=0, doc="angle weight beta11 > 0")
-    beta22: float = param(ge=0, doc="rate weight beta22 >= 0")
-    k: float = param(gt=0, doc="control weight: u enters the cost as u^2 / k")
+    # bounded where the closed-form Riccati solution (and scipy's) stays accurate
+    beta11: float = param(ge=1e-9, le=1e9, doc="angle weight beta11 > 0")
+    beta22: float = param(ge=0, le=1e9, doc="rate weight beta22 >= 0")
+    k: float = param(ge=1e-9, le=1e9, doc="control weight: u enters the cost as u^2 / k")
 
 
 @stage("law", "akor_lqr", AkorLqrParams)

@@ -1,0 +1,145 @@
+"""The feedforward gimbal servo (testbed/systems/cmg_rhombus/gimbal_servo.py) on cases that are
+not shipped scenarios: tracking of the held command, conservation of the total angular
+momentum, its deadbeat gains against a numerical solution, its limits and its observer."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from testbed.errors import InputError
+from testbed.systems.cmg_rhombus import CmgPlant, CmgRhombusParams, build
+from testbed.systems.cmg_rhombus.gimbal_servo import rate_deadbeat_gains
+
+
+@pytest.mark.parametrize("w_n, zeta, tc", [(5.0, 1.0, 0.01), (30.0, 0.7, 0.02), (60.0, 1.3, 0.05)])
+def test_deadbeat_gains_end_the_tick_at_zero_rate_error(w_n, zeta, tc):
+    """theta' = e, e' = -w_n^2 theta - 2 zeta w_n e + a with a = -(p theta0 + q e0): solve_ivp
+    ends the period at e = 0 from any start; and Gamma_1 is e(Tc) for a = 1 from rest."""
+    p, q, gamma = rate_deadbeat_gains(w_n, zeta, tc)
+
+    def end_state(theta0, e0, a):
+        sol = solve_ivp(lambda t, x: [x[1], -w_n**2 * x[0] - 2 * zeta * w_n * x[1] + a], (0, tc), [theta0, e0],
+                        method="DOP853", rtol=1e-12, atol=1e-15)
+        return sol.y[:, -1]
+
+    assert end_state(0.0, 0.0, 1.0)[1] == pytest.approx(gamma, rel=1e-9)
+    rng = np.random.default_rng(7)
+    for theta0, e0 in rng.normal(size=(4, 2)) * [1e-3, 1e-2]:
+        assert abs(end_state(theta0, e0, -(p * theta0 + q * e0))[1]) < 1e-10 * (abs(e0) + w_n * abs(theta0))
+
+
+def drive(params: CmgRhombusParams, dt, tc, duration, amplitude, frequency_hz, phase=0.0,
+          omega0=(0.004, -0.002, 0.003), damping=0.0, settle=0.1):
+    """Run the plant (as the runner does: command held for tc) with sinusoidal gimbal-rate
+    commands; return the largest |b'(t_k+1) - c(t_k)| / amplitude after `settle` s, the largest
+    |L(t) - L(0)| / stored rotor momentum, and the largest gimbal motor torque."""
+    plant = CmgPlant(build(params, dt), params, tc)
+    plant.model.dof_damping[plant.bus.gimbal_qvel_adr] = damping  # a torque the servo does not model
+    plant.initialise(SimpleNamespace(omega=np.asarray(omega0, float), quat=np.array([1.0, 0, 0, 0])))
+    momentum0, scale = plant.angular_momentum_world(), plant.momentum_scale()
+    tracking = drift = torque = 0.0
+    held = None
+    for k in range(round(duration / tc)):
+        t = k * tc
+        if held is not None and t > settle:
+            tracking = max(tracking, np.max(np.abs(plant.bus.gimbal_rates(plant.data) - held) / amplitude))
+        held = amplitude * np.sin(2 * np.pi * frequency_hz * t + phase)
+        plant.apply({"gimbal_rates": held})
+        plant.step(round(tc / dt))
+        drift = max(drift, np.linalg.norm(plant.angular_momentum_world() - momentum0) / scale)
+        torque = max(torque, np.max(np.abs(plant.data.qfrc_actuator[plant.bus.gimbal_qvel_adr])))
+    return tracking, drift, torque
+
+
+# (gimbal inertia, h, amplitude rad/s, frequency Hz, dt, Tc): other inertias, momenta,
+# amplitudes and frequencies than any scenario, at three steps
+CASES = [
+    ((0.1, 0.06, 0.05), 37.0, [0.05, 0.08, 0.03, 0.06], [0.03, 0.05, 0.021, 0.07], 0.005, 0.01),
+    ((0.02, 0.015, 0.012), 60.0, [0.02, 0.04, 0.05, 0.01], [0.1, 0.017, 0.04, 0.06], 0.01, 0.01),
+    ((0.05, 0.03, 0.03), 25.0, [0.1, 0.1, 0.1, 0.1], [0.011, 0.013, 0.017, 0.019], 0.02, 0.02),
+]
+
+
+def case_params(gimbal_inertia, h, dt, **servo):
+    return CmgRhombusParams(gimbal_inertia_kg_m2=list(gimbal_inertia), rotor_momentum_nms=h,
+                            rotor_speed_time_constant_s=max(0.02, 2 * dt), gimbal_angles_deg=[20, -50, 10, 80], **servo)
+
+
+@pytest.mark.parametrize("gimbal_inertia, h, amplitude, frequency, dt, tc", CASES)
+def test_feedforward_tracks_the_held_command_and_conserves_momentum(gimbal_inertia, h, amplitude, frequency, dt, tc):
+    amplitude, frequency, phase = np.array(amplitude), np.array(frequency), np.array([0.3, 1.1, 2.0, 4.0])
+    feedforward = {"servo_model": "feedforward", "servo_natural_frequency_rad_s": 5.0}
+    tracking, drift, _ = drive(case_params(gimbal_inertia, h, dt, **feedforward), dt, tc, 30.0, amplitude, frequency, phase)
+    # measured 9e-6, 4.9e-5 and 4.3e-5 of the amplitude, whatever dt; the issue's bound is 2e-3
+    assert tracking < 5e-4
+    stiff = {"servo_natural_frequency_rad_s": 0.69 / dt}  # the stiffest intvelocity servo RK4 accepts
+    stiff_tracking, _, _ = drive(case_params(gimbal_inertia, h, dt, **stiff), dt, tc, 30.0, amplitude, frequency, phase)
+    assert tracking < stiff_tracking / 30  # measured 500 to 2000 times less
+
+    # no torque acts from outside: what drifts is RK4's truncation error, fourth order in dt
+    # (measured 2.2e-11, 1.4e-10, 6.8e-9 of the stored momentum; 16 to 17 times less at dt / 2)
+    _, finer_drift, _ = drive(case_params(gimbal_inertia, h, dt / 2, **feedforward), dt / 2, tc, 30.0, amplitude,
+                              frequency, phase)
+    assert finer_drift < drift / 8
+    assert finer_drift < 1e-9 and (dt > 0.01 or drift < 1e-9)
+
+
+def test_observer_learns_a_torque_it_does_not_model():
+    """Viscous friction in the gimbal bearings (0.3 N m s/rad): tracking as without it."""
+    params = CmgRhombusParams(servo_model="feedforward", servo_natural_frequency_rad_s=5.0)
+    amplitude, frequency = np.full(4, 0.05), np.array([0.02, 0.03, 0.05, 0.04])
+    plain, _, _ = drive(params, 0.01, 0.01, 20.0, amplitude, frequency)
+    rubbing, drift, _ = drive(params, 0.01, 0.01, 20.0, amplitude, frequency, damping=0.3)
+    assert rubbing < 2 * plain + 1e-5 and rubbing < 1e-4
+    assert drift < 1e-9  # friction acts between gimbal and bus: momentum is still conserved
+
+
+def test_torque_limit_is_never_exceeded_and_momentum_is_kept():
+    """A command that starts at 0.1 rad/s needs 1.2 N m for the first tick; with 0.8 N m the
+    motor saturates for three ticks, then tracks as without a limit."""
+    amplitude, frequency = np.full(4, 0.1), np.full(4, 0.05)
+    free = CmgRhombusParams(servo_model="feedforward", servo_natural_frequency_rad_s=5.0)
+    free_tracking, _, free_torque = drive(free, 0.005, 0.01, 1.5, amplitude, frequency, phase=np.pi / 2,
+                                          omega0=(0.01, 0.0, -0.005), settle=0.2)
+    limited = CmgRhombusParams(servo_model="feedforward", servo_natural_frequency_rad_s=5.0, gimbal_torque_limit_nm=0.8)
+    tracking, drift, torque = drive(limited, 0.005, 0.01, 1.5, amplitude, frequency, phase=np.pi / 2,
+                                    omega0=(0.01, 0.0, -0.005), settle=0.2)
+    assert free_torque > 1.0 and torque <= 0.8 + 1e-12  # the limit did bite, and held
+    assert tracking < 1e-3 and free_tracking < 1e-4
+    assert drift < 1e-10  # the limit acts between gimbal and bus: momentum is kept
+
+
+def test_rate_limit_clips_the_command():
+    params = CmgRhombusParams(servo_model="feedforward", servo_natural_frequency_rad_s=5.0, gimbal_rate_limit_deg_s=2.0)
+    plant = CmgPlant(build(params, 0.01), params, 0.01)
+    plant.initialise(SimpleNamespace(omega=np.zeros(3), quat=np.array([1.0, 0, 0, 0])))
+    command = np.radians([5.0, -5.0, 1.0, -1.0])
+    for _ in range(50):
+        plant.apply({"gimbal_rates": command})
+        plant.step(1)
+    np.testing.assert_allclose(plant.bus.gimbal_rates(plant.data), np.radians([2.0, -2.0, 1.0, -1.0]), atol=1e-6)
+    # what the servo was asked (its command before the limit) is what truth records
+    np.testing.assert_array_equal(plant.truth()["gimbal_rate_command"], command)
+
+
+def test_truth_records_the_command_held_until_the_sample():
+    params = CmgRhombusParams(servo_model="feedforward", servo_natural_frequency_rad_s=5.0)
+    plant = CmgPlant(build(params, 0.01), params, 0.01)
+    plant.initialise(SimpleNamespace(omega=np.zeros(3), quat=np.array([1.0, 0, 0, 0])))
+    first, second = np.array([0.01, 0.02, 0.03, 0.04]), np.array([0.05, 0.06, 0.07, 0.08])
+    plant.apply({"gimbal_rates": first})
+    np.testing.assert_array_equal(plant.truth()["gimbal_rate_command"], np.zeros(4))  # held before t = 0
+    plant.step(1)
+    plant.apply({"gimbal_rates": second})
+    np.testing.assert_array_equal(plant.truth()["gimbal_rate_command"], first)
+    plant.step(1)  # the end of a run: no new command at this time
+    np.testing.assert_array_equal(plant.truth()["gimbal_rate_command"], second)
+
+
+def test_a_servo_faster_than_the_tick_is_refused_for_feedforward():
+    params = CmgRhombusParams(servo_model="feedforward", servo_natural_frequency_rad_s=300.0)
+    with pytest.raises(InputError) as error:
+        CmgPlant(build(params, 0.002), params, 0.05)
+    assert error.value.field == "model.servo_natural_frequency_rad_s"
