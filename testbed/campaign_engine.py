@@ -7,24 +7,27 @@ when nothing answers there within SCHEDULER_TIMEOUT_S or no worker joins.
 
 `results(fn, tasks)` runs fn(*args) for every argument tuple and yields (args, outcome) as each
 finishes: fn's return value, or `WorkerDied` when the worker process running it died twice.
-The command hands out one task per worker thread, and the next when one finishes, so no task
-waits on a worker behind another: a dying worker takes only the case it was running with it
-(the scheduler fails every task a dead worker was processing). The command hands that case
-out once more (the local scheduler reports the death at once, allowed-failures 0; another
-scheduler first retries by its own setting, Dask's default 3 times). Results are fetched in
-the background as tasks finish and released once taken, and a worker gets its next task only
-after that, so a worker that dies holds no finished result that would have to be computed
-again. Ctrl-C (or any exception in the caller's loop) cancels the cases out; leaving the
-`with` block closes the local cluster, stopping them. On an external cluster the ones running
-go on to their end (a worker thread cannot be stopped), their results unused.
+The command places the tasks itself, DEPTH per worker thread (one running, the next waiting on
+that worker so that it starts the moment the first ends, with no round trip to the command),
+and the next as one finishes. A worker runs its tasks oldest first, so when it dies the
+oldest task out on it is the one that killed it: that case is handed out once more (the
+local scheduler reports every task of a dead worker at once, allowed-failures 0; another
+scheduler first retries them by its own setting, Dask's default 3 times), then reported as
+an error row; the one that waited behind it goes back in the queue, not counted. Results are
+fetched in the background as tasks finish and released once taken. Ctrl-C (or any exception
+in the caller's loop) cancels the cases out; leaving the `with` block closes the local
+cluster, stopping them. On an external cluster the ones running go on to their end (a worker
+thread cannot be stopped), their results unused.
 """
 
 from __future__ import annotations
 
+import collections
 import logging
 import os
 import signal
 import threading
+import time
 import uuid
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Iterator
@@ -35,6 +38,7 @@ from testbed.errors import InputError
 
 SCHEDULER_TIMEOUT_S = 5.0     # connecting to --scheduler, and again for its first worker
 RETRIES = 1  # a case whose worker died runs once more
+DEPTH = 2    # tasks out per worker thread: one running, the next ready to start when it ends
 # The local scheduler reports a dead worker's task at once (it would otherwise run it again
 # itself, possibly on a worker that is busy): the command retries it, one task per worker.
 LOCAL_CONFIG = {"distributed.scheduler.allowed-failures": 0}
@@ -79,8 +83,10 @@ class Engine:
 
         if self.scheduler is None:
             with dask.config.set(LOCAL_CONFIG):
+                # no dashboard; the scheduler's own HTTP endpoint on a free loopback port, not 8787
                 self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
-                                            dashboard_address=None, silence_logs=logging.CRITICAL)
+                                            dashboard_address=None, silence_logs=logging.CRITICAL,
+                                            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})
                 self.client = Client(self.cluster)
         else:
             self.client = _connect(self.scheduler)
@@ -111,51 +117,58 @@ class Engine:
     def results(self, fn: Callable, tasks: Iterable[tuple], name: Callable[[tuple], str] = str
                 ) -> Iterator[tuple[tuple, Any]]:
         """(args, fn(*args) or WorkerDied) for every argument tuple in `tasks`, in the order they
-        finish; name(args) names the task (uniquely) on the scheduler. At most one task per
-        worker thread is out at a time; a task whose worker died is handed out RETRIES times
-        more (module doc)."""
+        finish; name(args) names the task (uniquely) on the scheduler. Each worker thread has
+        DEPTH tasks out, the oldest running; when a worker dies, its oldest task is the one
+        that killed it, handed out RETRIES times more, and the others go back in the queue
+        (module doc)."""
         from distributed import KilledWorker, as_completed
 
         batch = uuid.uuid4().hex[:8]  # keys stay unique on a scheduler shared by several campaigns
-        waiting, retry, running, deaths = iter(tasks), [], {}, {}
+        pending = collections.deque(tasks)  # a case handed out again goes first
+        deaths: dict[str, int] = {}         # name -> how often a worker died running it
+        out: dict = {}                      # future -> (args, worker address)
+        queues: dict[str, list] = {}        # worker address -> its futures, oldest first
         finished = as_completed([], with_results=True, raise_errors=False)
 
         def hand_out() -> None:
-            while len(running) < self.slots():
-                args = retry.pop() if retry else next(waiting, None)
-                if args is None:
-                    return
-                key = f"case-{batch}-{name(args)}-{deaths.get(name(args), 0)}"
-                future = self.client.submit(fn, *args, key=key, pure=False)
-                running[future] = args
-                finished.add(future)
+            for address, worker in self.client.scheduler_info()["workers"].items():
+                queue = queues.setdefault(address, [])
+                while pending and len(queue) < DEPTH * worker["nthreads"]:
+                    args = pending.popleft()
+                    key = f"{name(args)}-{batch}-{uuid.uuid4().hex[:8]}"  # a case handed out again gets a new key
+                    future = self.client.submit(fn, *args, key=key, pure=False, workers=[address],
+                                                allow_other_workers=True)
+                    out[future] = (args, address)
+                    queue.append(future)
+                    finished.add(future)
 
-        hand_out()
         try:
-            for future, outcome in finished:
-                args, failed = running.pop(future), future.status == "error"
+            while pending or out:
+                hand_out()
+                if not out:  # every worker died and none is back yet
+                    time.sleep(0.1)
+                    continue
+                future, outcome = next(finished)
+                args, address = out.pop(future)
+                culprit = queues[address][0] is future
+                queues[address].remove(future)
+                failed = future.status == "error"
                 future.release()
                 if isinstance(outcome, BaseException):  # cancelled: the cluster went away
                     raise outcome
                 if failed:  # outcome is (type, exception, traceback)
                     if not isinstance(outcome[1], KilledWorker):
                         raise outcome[1]
-                    deaths[name(args)] = deaths.get(name(args), 0) + 1
-                    if deaths[name(args)] <= RETRIES:
-                        retry.append(args)
-                        outcome = None
-                    else:
-                        outcome = WorkerDied(f"the worker process died running it, {deaths[name(args)]} times")
-                hand_out()
-                if outcome is not None:
-                    yield args, outcome
+                    if culprit:
+                        deaths[name(args)] = deaths.get(name(args), 0) + 1
+                    if not culprit or deaths[name(args)] <= RETRIES:  # one that waited behind it is not to blame
+                        pending.appendleft(args)
+                        continue
+                    outcome = WorkerDied(f"the worker process died running it, {deaths[name(args)]} times")
+                yield args, outcome
         finally:
-            if running:
-                self.client.cancel(list(running))
-
-    def slots(self) -> int:
-        """How many tasks may be out: the cluster's worker threads now (at least 1)."""
-        return max(1, sum(self.client.nthreads().values()))
+            if out:
+                self.client.cancel(list(out))
 
 
 def _connect(address: str):
