@@ -1,19 +1,22 @@
 """`testbed sweep` (also `testbed campaign`): run every case of a scenario's `sweep:` block, in
 parallel, into a table; or rerun one case alone.
 
-    testbed sweep SCENARIO [--workers N | --scheduler tcp://HOST:PORT] [--out DIR] [--rrd]
-                           [--set KEY.PATH=VALUE] [--json]
+    testbed sweep SCENARIO [--workers N | --scheduler tcp://HOST:PORT] [--out DIR] [--resume]
+                           [--rrd] [--set KEY.PATH=VALUE] [--json]
     testbed sweep SCENARIO --case N [--out DIR] [--set ...] [--json]
 
-The cases run on Dask (testbed.campaign_engine): a local cluster of --workers processes
-started inside the command, or the cluster whose scheduler is at --scheduler. Writes
-DIR/<scenario>.csv (default DIR: runs/<scenario>_sweep), one row per case
-(testbed.sweep_runner); with --rrd also DIR/caseNNNN.rrd per case. `--case N` rebuilds case
-N alone from the campaign seed, runs it in this process (bit for bit the numbers of its row)
-and writes DIR/caseNNNN.rrd. Every case is validated and built (and what it would run with
-read back, testbed.readback) before the first one runs. `--set` changes the base scenario
-before the sweep expands (the sweep block too). Exit 0 when every case passed all its
-checks, 1 otherwise, 2 for bad input (nothing runs).
+Every case is validated and built (and what it would run with read back, testbed.readback)
+before the first one runs. The cases run on Dask (testbed.campaign_engine): a local cluster of
+--workers processes started inside the command, or the cluster whose scheduler is at
+--scheduler. Each row goes to DIR/<scenario>.csv and .parquet as its case finishes (default
+DIR: runs/<scenario>_sweep; testbed.campaign_table); Ctrl-C keeps them, --resume runs only the
+cases the table lacks. At the end DIR/summary/ gets summary.json and summary.rrd
+(testbed.campaign_stats, testbed.campaign_plots), and the terminal the statistics; with --rrd
+each case also writes DIR/caseNNNN.rrd. `--case N` rebuilds case N alone from the campaign
+seed, runs it in this process (bit for bit the numbers of its row) and writes
+DIR/caseNNNN.rrd. `--set` changes the base scenario before the sweep expands (the sweep block
+too). Exit 0 when every case passed all its checks, 1 otherwise, 2 for bad input (nothing
+runs or is written), 130 on Ctrl-C.
 """
 
 from __future__ import annotations
@@ -111,7 +114,7 @@ def run(args) -> int:
     with Engine(workers, args.scheduler) as engine:  # an unreachable scheduler is refused before any file is written
         table, done = open_table(out, name, data, cases, args)
         rows = _run_into(table, done, cases, engine, out if args.rrd else None, args)
-    lines = summarise(name, rows, cases, out, args)
+    lines = summarise(name, data, rows, cases, out, args)
     if args.json:
         print(json.dumps(rows))
     else:
@@ -122,18 +125,23 @@ def run(args) -> int:
     return EXIT_OK if all(r["passed"] for r in rows) else EXIT_FAILED
 
 
-def summarise(name: str, rows: list[dict], cases, out: Path, args) -> list[str]:
+def summarise(name: str, data: dict, rows: list[dict], cases, out: Path, args) -> list[str]:
     """Write DIR/summary/summary.json and summary.rrd of a finished campaign (testbed.campaign_stats,
-    testbed.campaign_plots); returns the lines for the terminal."""
+    testbed.campaign_plots); returns the lines for the terminal. Each value of a grid field or
+    a choice gets its own pass rate."""
     from testbed.campaign_plots import write_summary_rrd
     from testbed.campaign_stats import report, rerun_command, summary
     from testbed.campaign_table import write_atomically
     from testbed.sweep_runner import flat
+    from testbed.sweep_spec import load_spec
 
+    spec = load_spec(data.get("sweep"))
+    choices = [key for key, dist in spec.drawn.items() if dist.kind == "choice"]
+    groups = [key for key in [*spec.grid, *choices] if key in rows[0]]  # a value's own column (not a vector)
     metric_names = list(dict.fromkeys(m for case in cases for m in case.prepared["metrics"]))
     parameters = list(dict.fromkeys(k for case in cases for k in [*flat(case.values), *case.derived]))
     limits = {case.index: case.prepared["checks"] for case in cases}
-    result = summary(name, rows, metric_names, limits, rerun_command(args.scenario, args.set, str(out)))
+    result = summary(name, rows, metric_names, limits, rerun_command(args.scenario, args.set, str(out)), groups)
     result["parameters"] = parameters
     (out / "summary").mkdir(exist_ok=True)  # apart from the cases' caseNNNN.rrd
     write_atomically(out / "summary" / "summary.json", json.dumps(result, indent=1))

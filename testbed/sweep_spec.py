@@ -13,13 +13,15 @@
       samples: 3
 
 The distributions are those of testbed.dispersions. Cases = grid points x samples (a grid
-alone: its points; draws alone: `samples` cases), numbered in that order from 0. Case i has
-its own seed, `case_seed(seed, i)`, and each dispersed field of it draws from a generator of
-its own, `field_generator(case seed, path)`: a case is made from (seed, i) alone, so
-`testbed sweep --case i` rebuilds it without the others, and adding a field leaves the other
-fields' draws unchanged. `random:` is the sweep's first form, kept so that an existing seeded
-sweep gives the same cases: one generator seeded with `seed` draws every case's fields in
-case order.
+alone: its points; draws alone: `samples` cases), numbered in that order from 0: case i is
+sample j = i mod samples of grid point i div samples. Its seed is `case_seed(seed, j)`, and
+each dispersed field draws from a generator of its own, `field_generator(case seed, path)`:
+a case is made from (seed, i) alone, so `testbed sweep --case i` rebuilds it without the
+others; adding a field leaves the other fields' draws unchanged; and sample j draws the same
+values at every grid point (common random numbers: a grid of designs, steering laws say, is
+compared on the same dispersed cases, pair by pair). `random:` is the sweep's first form,
+kept so that an existing seeded sweep gives the same cases: one generator seeded with `seed`
+draws every case's fields in case order.
 
 At most MAX_CASES cases: each is validated before the first runs.
 """
@@ -98,10 +100,10 @@ def load_spec(data, path: str = "sweep") -> SweepSpec:
     return schema.load(SweepSpec, data, path)
 
 
-def case_seed(seed: int, index: int) -> int:
-    """Case `index`'s own seed, in [0, 2^32): the first word of numpy's SeedSequence of the
-    campaign seed spawned at key (index,) (independent streams for every index)."""
-    return int(np.random.SeedSequence(seed, spawn_key=(index,)).generate_state(1)[0])
+def case_seed(seed: int, sample: int) -> int:
+    """The seed of sample `sample`'s cases, in [0, 2^32): the first word of numpy's
+    SeedSequence of the campaign seed spawned at key (sample,) (independent streams)."""
+    return int(np.random.SeedSequence(seed, spawn_key=(sample,)).generate_state(1)[0])
 
 
 def field_generator(seed_of_case: int, path: str) -> np.random.Generator:
@@ -130,7 +132,7 @@ class CaseDraw:
 
     def __init__(self, spec: SweepSpec, index: int, point: dict, streamed: dict, nominal: Callable[[str], Any]):
         self.spec, self.index, self.nominal = spec, index, nominal
-        self.seed = case_seed(spec.seed, index)
+        self.seed = case_seed(spec.seed, index % (spec.samples or 1))  # the same for sample j at every grid point
         self.generators = {key: field_generator(self.seed, key) for key in spec.dispersions}
         self.values = point | {key: self._draw(key) for key in spec.dispersions} | streamed
 

@@ -18,23 +18,15 @@ from pathlib import Path
 import pytest
 import yaml
 
+from campaign_cases import spinup
 from testbed.campaign_table import read_parquet
 from testbed.cli import main
 
 DASK = Path(sys.executable).with_name("dask")  # the CLI of the dask package, beside this Python
 
-# The Lebedev one-gyro spin-up on a rigid bus, 20 s (tests/test_dispersions.py), 20 cases
-# with every dispersion that has a random part.
-CAMPAIGN = {
-    "name": "cluster_campaign",
-    "model": {"system": "satellite", "inertia_kg_m2": [1.25e6, 6.9e6, 7.1e6], "mass_kg": 77000},
-    "initial": {"omega_deg_s": [0.25, -0.25, 0.0]},
-    "sim": {"duration_s": 20, "dt_s": 0.05, "control_period_s": 0.05, "trace_period_s": 0.5},
-    "pipeline": {"sensor": {"type": "rate_gyro", "axis": [0.5773502691896258] * 3, "noise_sigma_rad_s": 1e-7},
-                 "estimator": {"type": "lebedev", "poles_per_s": [-0.1, -0.1, -0.1], "startup_s": 150},
-                 "law": {"type": "lebedev", "task": "spin", "spin_rate_deg_s": 1.0, "gains_per_s": [-1, -1, -1]},
-                 "allocator": {"type": "ideal_torque"}},
-    "checks": {"final_omega_rad_s": {"max": 0.01}},
+# The Lebedev one-gyro spin-up on a rigid bus, 20 s (tests/campaign_cases.py), 20 cases with
+# every dispersion that has a random part.
+CAMPAIGN = spinup("cluster_campaign", {"final_omega_rad_s": {"max": 0.01}}) | {
     "sweep": {"seed": 12, "samples": 10, "grid": {"sim.integrator": ["RK4", "Euler"]}, "dispersions": {
         "model.mass_kg": {"normal": [77000, 3000]},
         "model.inertia_kg_m2": {"truncated_normal": [0, 0.02, -0.03, 0.03], "relative": True},
@@ -42,8 +34,7 @@ CAMPAIGN = {
         "pipeline.sensor.noise_sigma_rad_s": {"log_uniform": [1e-8, 1e-6]},
         "pipeline.sensor.bias_rad_s": {"normal": [0, 1e-6]},
         "pipeline.sensor.seed": {"integer": [0, 4294967295]},
-        "pipeline.sensor.axis": {"misalignment_deg": 0.5}}},
-}
+        "pipeline.sensor.axis": {"misalignment_deg": 0.5}}}}
 
 
 def write(folder: Path, data: dict, name: str = "campaign.yaml") -> str:
@@ -136,49 +127,14 @@ def test_an_unreachable_scheduler_is_bad_input_within_10_s(tmp_path, capsys):
     assert not (tmp_path / "out" / "cluster_campaign.csv").exists()
 
 
-MORTAL = '''"""A law that kills its process at its first tick when tag == die_at, after logging the run."""
-import os
-from dataclasses import dataclass
-
-import numpy as np
-
-from testbed.pipeline import stage
-from testbed.schema import param
-
-
-@dataclass(kw_only=True)
-class MortalParams:
-    tag: int = param(0)
-    die_at: int = param(-1)
-    log: str = param("")
-
-
-@stage("law", "test.mortal", MortalParams)
-class Mortal:
-    def __init__(self, params, ctx):
-        self.params = params
-        self.started = False
-
-    def torque(self, t, estimate):
-        if not self.started:
-            self.started = True
-            with open(self.params.log, "a") as handle:
-                handle.write(f"{self.params.tag} {os.getpid()}\\n")
-            if self.params.tag == self.params.die_at:
-                os._exit(3)
-        return {"torque": np.zeros(3)}
-'''
-
-
 @pytest.mark.slow
-def test_a_worker_that_dies_costs_only_its_own_case(tmp_path, capsys):
+def test_a_worker_that_dies_costs_only_its_own_case(tmp_path, capsys, logged_law):
     """Case 2's law kills its worker process: it is run twice (once more on another worker),
     then reported as an error; every other case runs once and passes."""
-    (tmp_path / "mortal.py").write_text(MORTAL)
     log = tmp_path / "builds.log"
-    data = {"name": "mortal", "plugins": ["mortal.py"],
+    data = {"name": "mortal", "plugins": [logged_law],
             "model": {"system": "satellite"}, "sim": {"duration_s": 2, "dt_s": 0.01},
-            "pipeline": {"law": {"type": "test.mortal", "die_at": 2, "log": str(log)},
+            "pipeline": {"law": {"type": "test.logged", "die_at": 2, "log": str(log)},
                          "allocator": {"type": "ideal_torque"}},
             "checks": {"final_omega_rad_s": {"max": 1e-12}},
             "sweep": {"grid": {"pipeline.law.tag": [0, 1, 2, 3, 4, 5]}}}

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 import yaml
 
+from campaign_cases import spinup
 from testbed.cli import main
 from testbed.dispersions import angle_deg
 from testbed.errors import InputError
@@ -21,19 +22,8 @@ from testbed.sweep import MAX_REFUSED_SHARE, expand
 from testbed.sweep_runner import run_case, run_cases
 from testbed.sweep_spec import MAX_CASES, assignments, case_seed, field_generator, load_spec
 
-# The Lebedev one-gyro spin-up (scenarios/lebedev_spinup_ideal.yaml) cut to 20 s: a rigid bus
-# with ideal torques, so every case costs a fraction of a second.
-GYRO = {
-    "name": "gyro_campaign",
-    "model": {"system": "satellite", "inertia_kg_m2": [1.25e6, 6.9e6, 7.1e6], "mass_kg": 77000},
-    "initial": {"omega_deg_s": [0.25, -0.25, 0.0]},
-    "sim": {"duration_s": 20, "dt_s": 0.05, "control_period_s": 0.05, "trace_period_s": 0.5},
-    "pipeline": {"sensor": {"type": "rate_gyro", "axis": [0.5773502691896258] * 3, "noise_sigma_rad_s": 1e-7},
-                 "estimator": {"type": "lebedev", "poles_per_s": [-0.1, -0.1, -0.1], "startup_s": 150},
-                 "law": {"type": "lebedev", "task": "spin", "spin_rate_deg_s": 1.0, "gains_per_s": [-1, -1, -1]},
-                 "allocator": {"type": "ideal_torque"}},
-    "checks": {"final_omega_rad_s": {"max": 1.0}},
-}
+# The Lebedev one-gyro spin-up on a rigid bus, 20 s (tests/campaign_cases.py).
+GYRO = spinup("gyro_campaign", {"final_omega_rad_s": {"max": 1.0}})
 # Every kind of dispersion, each on a field that is read back from the compiled model or the
 # constructed stage.
 EVERY_KIND = {
@@ -164,8 +154,10 @@ def test_random_block_keeps_its_one_stream_and_grids_combine_with_dispersions():
     stream = np.random.default_rng(3).uniform(7e4, 8e4, 4)
     assert [c.values["sim.integrator"] for c in cases] == ["RK4", "RK4", "Euler", "Euler"]
     assert [c.values["model.mass_kg"] for c in cases] == list(stream)
+    # sample j draws the same dispersions at every grid point (its seed is case_seed(3, j))
+    assert [c.seed for c in cases] == [case_seed(3, j) for j in (0, 1, 0, 1)] and cases[0].seed != cases[1].seed
     assert [c.values["pipeline.sensor.seed"] for c in cases] == [
-        int(field_generator(case_seed(3, i), "pipeline.sensor.seed").integers(0, 99, endpoint=True)) for i in range(4)]
+        int(field_generator(case_seed(3, j), "pipeline.sensor.seed").integers(0, 99, endpoint=True)) for j in (0, 1, 0, 1)]
 
 
 # --- refused draws ---------------------------------------------------------------------------------
@@ -350,3 +342,15 @@ def test_an_output_folder_that_cannot_be_written_is_refused_first(tmp_path, caps
     assert capsys.readouterr().err.startswith("error: --out:")
     assert main(["sweep", path, "--out", str(tmp_path / "file")]) == 2
     assert "is a file" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name, count", [("lebedev_spinup_campaign", 200), ("reorient_campaign", 200)])
+def test_the_shipped_campaigns_build_and_read_back(name, count):
+    """The README's campaigns: their case count, and a few cases each built as they will run,
+    every dispersed value found again in the built model and stages."""
+    from testbed.sweep_cli import load_cases
+
+    _, data, cases = load_cases(name, [], [0, count // 2 + 1, count - 1])
+    assert load_spec(data["sweep"]).count == count
+    for case in cases:
+        assert {source for _, source in case.prepared["applied"].values()} <= {"model", "stage"}
