@@ -1,9 +1,10 @@
-"""What the campaign tests share: a short spin-up to disperse, and a plug-in law that logs the
-runs of each case (and can kill its process) so a test can count them."""
+"""What the campaign tests share: a short spin-up to disperse, a bit-for-bit row comparison, and a
+plug-in law that logs the runs of each case (and can kill its process) so a test can count them."""
 
 from __future__ import annotations
 
 import copy
+import math
 
 from testbed.scenario_yaml import read_yaml
 from testbed.shipped_files import SCENARIO_DIR
@@ -18,6 +19,13 @@ def spinup(name: str, checks: dict, noise_rad_s: float | None = 1e-7) -> dict:
     if noise_rad_s is not None:
         data["pipeline"]["sensor"]["noise_sigma_rad_s"] = noise_rad_s
     return data
+
+
+def same_cells(a: dict, b: dict) -> bool:
+    """The same cells with the same values bit for bit (NaN equals NaN), wall time aside."""
+    keys = set(a) - {"wall_s"}
+    return keys == set(b) - {"wall_s"} and all(
+        a[k] == b[k] or (isinstance(a[k], float) and math.isnan(a[k]) and math.isnan(b[k])) for k in keys)
 
 
 LOGGED_LAW = '''"""A zero-torque law that logs its case's tag and process at its first tick; with tag == die_at

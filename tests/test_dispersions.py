@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import yaml
 
-from campaign_cases import spinup
+from campaign_cases import same_cells, spinup
 from testbed.cli import main
 from testbed.dispersions import angle_deg
 from testbed.errors import InputError
@@ -285,12 +285,6 @@ def test_case_n_reruns_its_row_bit_for_bit_and_writes_its_trace(tmp_path, capsys
     assert main(["sweep", path, "--case", "3", "--out", str(out)]) == 2
     assert "--case: must be a case number 0 ... 2, got 3" in capsys.readouterr().err
 
-
-def same_cells(a: dict, b: dict) -> bool:
-    """The same cells with the same values bit for bit (NaN equals NaN), wall time aside."""
-    keys = set(a) - {"wall_s"}
-    return keys == set(b) - {"wall_s"} and all(
-        a[k] == b[k] or (isinstance(a[k], float) and math.isnan(a[k]) and math.isnan(b[k])) for k in keys)
 
 
 # --- bad input -------------------------------------------------------------------------------------

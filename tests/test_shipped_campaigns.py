@@ -6,19 +6,13 @@ whole campaigns (200 cases each, tens of minutes) are run from the README's comm
 from __future__ import annotations
 
 import json
-import math
 
 import pytest
 
+from campaign_cases import same_cells
 from testbed.cli import main
 
 SLEW_SAMPLES = 4  # sample j of the slice is sample j of the full campaign (its seed depends on j alone)
-
-
-def same_cells(a: dict, b: dict) -> bool:
-    keys = set(a) - {"wall_s"}
-    return keys == set(b) - {"wall_s"} and all(
-        a[k] == b[k] or (isinstance(a[k], float) and math.isnan(a[k]) and math.isnan(b[k])) for k in keys)
 
 
 @pytest.mark.slow
