@@ -5,6 +5,15 @@ Entity paths: `<group>/<signal>` for every recorded signal (groups `truth`, `sen
 bus box), `world/angular_momentum` (total, world frame), `world/bus/<name>` for each
 body-frame momentum the plant's scene names (e.g. an actuator cluster's) and `run/result` (the metrics and checks as JSON, read back by
 `testbed inspect`). Everything is buffered and sent with `send_columns` on `sim_time`.
+
+A plant's scene may add (testbed.scene builds them from the compiled model):
+- `moving_parts`: bodies on the bus, drawn at `world/bus/<body>/<child>...`, each a transform
+  (turning with its hinge's recorded angle, or fixed), its geoms as `.../boxes` and
+  `.../cylinders`, and optional momentum `arrows` in its frame as `.../momentum`;
+- `momentum_space`: a second 3D view at `momentum_space/`: point-cloud `surfaces` (name, points
+  (m, 3), color), the recorded `path` signal as `momentum_space/path` (segments coloured by the
+  recorded `measure` over `measure_range`: red low, green high) and its current value as
+  `momentum_space/now`.
 """
 
 from __future__ import annotations
@@ -23,6 +32,7 @@ import rerun.blueprint as rrb
 
 from testbed.errors import InputError, quoted
 from testbed.recorder import Recorder, Trace
+from testbed.scene import hinge_poses
 
 APP_ID = "gyrodyne-testbed"
 RESULT_ENTITY = "run/result"
@@ -55,6 +65,7 @@ def _series_names(name: str, width: int, units: dict) -> list[str]:
 
 
 GROUP_ORDER = ["truth", "reference", "sensor", "estimator", "law", "allocator"]
+MOMENTUM_SPACE = "momentum_space"
 
 
 def _blueprint(recorder: Recorder, scene: dict | None) -> rrb.Blueprint:
@@ -74,17 +85,39 @@ def _blueprint(recorder: Recorder, scene: dict | None) -> rrb.Blueprint:
     left = []
     if scene is not None:
         # Look at the bus from outside, from a (1, -1.2, 0.8) direction, z up.
-        eye = 4.0 * max(scene.get("bus_half_size", [0.5])) * np.array([1.0, -1.2, 0.8])
+        eye = 2.5 * max(scene.get("bus_half_size", [0.5])) * np.array([1.0, -1.2, 0.8])
         left.append(rrb.Spatial3DView(origin="/world", name="attitude and momentum",
                                       eye_controls=rrb.EyeControls3D(position=eye, look_target=[0, 0, 0],
                                                                      eye_up=[0, 0, 1])))
-    left.append(rrb.TextDocumentView(origin="/run/summary", name="result"))
+    space = (scene or {}).get("momentum_space")
+    if space is not None:
+        eye = 2.3 * _extent(space) * _side_view(recorder[space["path"]] if space["path"] in recorder else np.zeros((1, 3)))
+        left.append(rrb.Spatial3DView(origin=f"/{MOMENTUM_SPACE}", name=space.get("title", "momentum"),
+                                      eye_controls=rrb.EyeControls3D(position=eye, look_target=[0, 0, 0],
+                                                                     eye_up=[0, 0, 1])))
+        plots = rrb.Vertical(plots, rrb.TextDocumentView(origin="/run/summary", name="result"), row_shares=[3, 1])
+    else:
+        left.append(rrb.TextDocumentView(origin="/run/summary", name="result"))
     return rrb.Blueprint(
-        rrb.Horizontal(rrb.Vertical(*left, row_shares=[3, 2][: len(left)]), plots, column_shares=[2, 3]),
+        rrb.Horizontal(rrb.Vertical(*left, row_shares=[3, 2][: len(left)] if space is None else [1, 1]), plots,
+                       column_shares=[2, 3]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
-        rrb.TimePanel(state="collapsed"),
+        rrb.TimePanel(state="collapsed", play_state="following"),  # opens on the run's end
     )
+
+
+def _side_view(path: np.ndarray) -> np.ndarray:
+    """A unit eye direction that sees a recorded 3D path side-on: perpendicular to its farthest
+    point's direction, raised 30 deg (from (1, -1.2, 0.8) when the path stays at the origin)."""
+    farthest = path[np.argmax(np.linalg.norm(path, axis=1))] if len(path) else np.zeros(3)
+    if np.linalg.norm(farthest) == 0.0:
+        return np.array([1.0, -1.2, 0.8]) / np.linalg.norm([1.0, -1.2, 0.8])
+    side = np.cross(farthest, [0.0, 0.0, 1.0])
+    if np.linalg.norm(side) < 1e-6 * np.linalg.norm(farthest):  # a path along z: look along x
+        side = np.array([1.0, 0.0, 0.0])
+    side = side / np.linalg.norm(side)
+    return np.cos(np.radians(30)) * side + np.sin(np.radians(30)) * np.array([0.0, 0.0, 1.0])
 
 
 def write_rrd(path: Path, recorder: Recorder, result: dict, scene: dict | None = None) -> Path:
@@ -145,6 +178,8 @@ def output_path(out, field: str = "--out") -> Path:
     existing folder writable, a name the file system takes. A symlink is written through (its
     target is replaced, the link stays)."""
     text = str(out)
+    if not text:  # Path("") is the current folder
+        raise InputError(field, "is empty; give a file name such as run.rrd")
     try:
         path = Path(text).expanduser()
         if text.endswith(("/", os.sep)) or path.is_dir():
@@ -195,7 +230,9 @@ def _write_streams(rec, recorder: Recorder, result: dict, scene: dict | None) ->
 
 def _write_scene(rec, recorder: Recorder, times, scene: dict) -> None:
     half = np.asarray(scene.get("bus_half_size", [0.5, 0.5, 0.5]), float)
-    rec.log("world/bus", rr.Boxes3D(half_sizes=[half], colors=[[170, 175, 190, 90]], fill_mode="solid"), static=True)
+    # a solid translucent bus, or its edges only when parts inside it are drawn
+    fill = "majorwireframe" if scene.get("moving_parts") else "solid"
+    rec.log("world/bus", rr.Boxes3D(half_sizes=[half], colors=[[170, 175, 190, 90]], fill_mode=fill), static=True)
     rec.log("world/bus/axes", rr.Arrows3D(vectors=np.eye(3) * 1.5 * half.max(),
                                           colors=[[220, 60, 60], [60, 200, 60], [60, 60, 220]],
                                           labels=["x", "y", "z"]), static=True)
@@ -213,6 +250,77 @@ def _write_scene(rec, recorder: Recorder, times, scene: dict) -> None:
             rec.send_columns(entity, indexes=[times],
                              columns=rr.Arrows3D.columns(vectors=vectors, origins=np.zeros_like(vectors),
                                                          colors=np.tile(color, (len(vectors), 1))))
+    for part in scene.get("moving_parts", []):
+        _write_part(rec, recorder, times, part, scale)
+    if "momentum_space" in scene:
+        _write_momentum_space(rec, recorder, times, scene["momentum_space"])
+
+
+def _xyzw(quat) -> np.ndarray:
+    """MuJoCo's (w, x, y, z) as Rerun's (x, y, z, w), for (4,) or (N, 4)."""
+    return np.asarray(quat, float)[..., [1, 2, 3, 0]]
+
+
+def _write_part(rec, recorder: Recorder, times, part: dict, scale: float) -> None:
+    """One moving part (testbed.scene.moving_parts): its frame, its geoms, its momentum arrows."""
+    entity = f"world/bus/{part['entity']}"
+    hinge = part["hinge"]
+    if hinge is not None and hinge["signal"] in recorder:
+        translations, quats = hinge_poses(part, recorder[hinge["signal"]][:, hinge["column"]])
+        rec.send_columns(entity, indexes=[times],
+                         columns=rr.Transform3D.columns(translation=translations, quaternion=_xyzw(quats)))
+    else:
+        rec.log(entity, rr.Transform3D(translation=part["pos"], quaternion=_xyzw(part["quat"])), static=True)
+    for kind in ("box", "cylinder"):
+        shapes = [shape for shape in part["shapes"] if shape["kind"] == kind]
+        if not shapes:
+            continue
+        common = {"centers": [sh["pos"] for sh in shapes], "quaternions": [_xyzw(sh["quat"]) for sh in shapes],
+                  "colors": [sh["rgba"] for sh in shapes], "fill_mode": "solid"}
+        if kind == "box":
+            rec.log(f"{entity}/boxes", rr.Boxes3D(half_sizes=[sh["size"] for sh in shapes], **common), static=True)
+        else:
+            rec.log(f"{entity}/cylinders", rr.Cylinders3D(radii=[sh["size"][0] for sh in shapes],
+                                                          lengths=[2.0 * sh["size"][1] for sh in shapes], **common),
+                    static=True)
+    if part.get("arrows"):
+        rec.log(f"{entity}/momentum", rr.Arrows3D(vectors=[np.asarray(a["vector"], float) * scale for a in part["arrows"]],
+                                                  labels=[a.get("label", "") for a in part["arrows"]], show_labels=False,
+                                                  colors=[[250, 150, 60]] * len(part["arrows"])), static=True)
+
+
+def _extent(space: dict) -> float:
+    """The largest distance from the origin of a momentum view's surfaces (its size)."""
+    return max((float(np.max(np.linalg.norm(np.asarray(s["points"], float), axis=1)))
+                for s in space["surfaces"] if len(s["points"])), default=1.0)
+
+
+def measure_colors(values: np.ndarray, value_range) -> np.ndarray:
+    """RGB (N, 3) for values over [low, high]: red at low, yellow half way, green at high."""
+    low, high = value_range
+    f = np.clip((np.asarray(values, float) - low) / (high - low), 0.0, 1.0)
+    f = np.nan_to_num(f, nan=0.0)
+    return np.column_stack([255 * np.minimum(1.0, 2.0 * (1.0 - f)), 255 * np.minimum(1.0, 2.0 * f),
+                            np.full_like(f, 40.0)]).astype(np.uint8)
+
+
+def _write_momentum_space(rec, recorder: Recorder, times, space: dict) -> None:
+    """The second 3D view: surfaces as points, the recorded path coloured by its measure, the current point."""
+    radius = 0.003 * _extent(space)
+    for surface in space["surfaces"]:
+        rec.log(f"{MOMENTUM_SPACE}/{surface['name']}",
+                rr.Points3D(np.asarray(surface["points"], float), colors=[surface["color"]], radii=radius), static=True)
+    if space["path"] not in recorder:
+        return
+    path = np.asarray(recorder[space["path"]], float)
+    measure = np.asarray(recorder[space["measure"]], float).reshape(len(path), -1)[:, 0] \
+        if space.get("measure") in recorder else np.full(len(path), np.nan)
+    colors = measure_colors(measure, space.get("measure_range", (0.0, 1.0)))
+    if len(path) > 1:
+        rec.log(f"{MOMENTUM_SPACE}/path", rr.LineStrips3D(np.stack([path[:-1], path[1:]], axis=1), colors=colors[1:],
+                                                          radii=2.0 * radius), static=True)
+    rec.send_columns(f"{MOMENTUM_SPACE}/now", indexes=[times],
+                     columns=rr.Points3D.columns(positions=path, colors=colors, radii=np.full(len(path), 6.0 * radius)))
 
 
 def _summary_markdown(result: dict) -> str:
