@@ -35,6 +35,11 @@ class FreeBus:
         self.qvel_adr = int(joint.dofadr[0])
         self.torque_actuator_ids = np.array([model.actuator(n).id for n in TORQUE_ACTUATORS])
 
+    def applied(self) -> dict:
+        """The bus's own mass properties as compiled (what `set_bus_mass` wrote), by scenario path."""
+        return {"model.inertia_kg_m2": self.model.body_inertia[self.bus_body_id].tolist(),
+                "model.mass_kg": float(self.model.body_mass[self.bus_body_id])}
+
     def body_omega(self, data):
         """Body-frame angular velocity [rad/s]: a free joint's rotational qvel is body-frame."""
         return data.qvel[self.qvel_adr + 3:self.qvel_adr + 6].copy()

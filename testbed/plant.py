@@ -16,6 +16,10 @@ import struct
 import mujoco
 import numpy as np
 
+from testbed.shipped_files import INTEGRATORS
+
+INTEGRATOR_NAMES = {int(value): name for name, value in INTEGRATORS.items()}
+
 
 # MuJoCo writes its warnings to MUJOCO_LOG.TXT in the working directory unless a callback takes
 # them: keep the last one for the run's error message instead.
@@ -163,6 +167,19 @@ class Plant:
     def description(self):
         """Static design data controllers may use (e.g. an actuator cluster's geometry)."""
         return None
+
+    def applied(self) -> dict:
+        """Scenario fields as this plant runs them, by dotted path, read back from the compiled
+        model and the state `initialise` left (testbed.readback compares them with what a
+        campaign drew): the step and integrator, the initial rate and attitude of the bus, and
+        what the bus read-outs add (`FreeBus.applied`). A system adds its own fields."""
+        omega = self.omega()
+        values = {"sim.dt_s": float(self.model.opt.timestep),
+                  "sim.integrator": INTEGRATOR_NAMES[int(self.model.opt.integrator)],
+                  "initial.omega_rad_s": omega.tolist(), "initial.omega_deg_s": np.degrees(omega).tolist(),
+                  "initial.quat": self.quat().tolist()}
+        bus_values = getattr(self.bus, "applied", None)
+        return values | (bus_values() if bus_values is not None else {})
 
     def scene(self) -> dict:
         """What the 3D view draws: the bus box half sizes (from its first box geom) [m]."""

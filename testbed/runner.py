@@ -119,13 +119,17 @@ def stage_context(scenario, inertia, description=None, actuators=None, internal_
                         stages=stage_infos(scenario.stages), actuators=dict(actuators or {}))
 
 
-def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = False) -> RunResult:
+def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = False,
+                 on_prepared=None) -> RunResult:
     """Run `scenario`, write the trace to `out` (None: no file) and evaluate its checks;
     `keep_data` keeps the trace and what the metrics saw in the result; `progress(fraction)`
-    is called about 200 times."""
+    is called about 200 times; `on_prepared(plant, pipeline)` sees the built plant and stages
+    before the first step (a campaign reads back what the case runs with)."""
     wall0 = time.perf_counter()
     out = trace.output_path(out) if out is not None else None  # refused before the run, not after
     plant, pipeline, reference = prepare(scenario)
+    if on_prepared is not None:
+        on_prepared(plant, pipeline)
     sim = scenario.sim
     n_ticks = round(sim.duration_s / sim.control_period_s)
     if sim.samples_per_tick == 1:  # one rate: every stage at the control period

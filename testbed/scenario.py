@@ -11,7 +11,7 @@ Layout (every key optional unless marked; units are in the key names, SI and rad
     pipeline: {sensor|estimator|law|allocator: {type: NAME, ...params}}   (testbed.pipeline)
     reference: {type: NAME, ...}    # an analytic model the truth is compared with
     checks: {METRIC: {max: X} | {min: X}}
-    sweep: {grid: {PATH: [values]}, random: {PATH: {uniform: [lo, hi]}}, samples, seed}   (testbed.sweep)
+    sweep: {grid: {PATH: [values]}, dispersions: {PATH: {normal: [mean, sigma]}}, samples, seed}   (testbed.sweep_spec)
 
 `load_scenario(path, overrides)` applies `--set key.path=value` overrides to the raw mapping
 first, so they are validated exactly like the file.
@@ -188,10 +188,15 @@ def apply_override(data: dict, assignment: str) -> None:
     if "=" not in assignment:
         raise InputError("--set", f"expected key.path=value, got {quoted(assignment)}")
     key, text = assignment.split("=", 1)
-    parts = key.strip().split(".")
-    if not all(parts):
+    if not all(key.strip().split(".")):
         raise InputError("--set", f"bad key path {key!r}")
-    value = yaml_load(text, f"--set {key}")
+    set_field(data, key.strip(), yaml_load(text, f"--set {key}"))
+
+
+def set_field(data: dict, path: str, value) -> None:
+    """Set the field at dotted `path` of a raw scenario mapping to `value`, in place (mappings
+    on the way are created)."""
+    parts = path.split(".")
     node = data
     for i, part in enumerate(parts[:-1]):
         child = node.get(part)
@@ -201,6 +206,44 @@ def apply_override(data: dict, assignment: str) -> None:
             raise InputError(".".join(parts[: i + 1]), "is not a mapping, cannot set a key below it")
         node = child
     node[parts[-1]] = value
+
+
+_MISSING = object()
+
+
+def field_value(scenario: Scenario, path: str, default=_MISSING):
+    """The validated value of the field at dotted `path` (its default when the file left it out):
+    `model.*` the system's parameters, `pipeline.SLOT.type` and `pipeline.SLOT.*` a stage's name
+    and parameters, `reference.*` likewise, `initial.*`, `sim.*`, `checks.NAME.max|min`.
+    An unknown path returns `default`, or raises KeyError without one."""
+    parts = path.split(".")
+    head, rest = parts[0], parts[1:]
+    if head == "pipeline" and rest and rest[0] in scenario.stages:
+        node, rest = _named(scenario.stages[rest[0]], rest[1:])
+    elif head == "reference" and scenario.reference is not None:
+        node, rest = _named(scenario.reference, rest)
+    else:
+        node = getattr(scenario, head, _MISSING) if head != "stages" else _MISSING
+    for part in rest:
+        if isinstance(node, dict):
+            node = node.get(part, _MISSING)
+        elif node is not _MISSING and part in getattr(node, "__dataclass_fields__", {}):
+            node = getattr(node, part)
+        else:
+            node = _MISSING
+    if node is _MISSING:
+        if default is _MISSING:
+            raise KeyError(path)
+        return default
+    return node
+
+
+def _named(entry: tuple, rest: list[str]):
+    """(node, rest of the path) inside a (name, params) pair: `type` is the name."""
+    name, params = entry
+    if rest[:1] == ["type"]:
+        return name, rest[1:]
+    return params, rest
 
 
 def load_scenario(name_or_path: str, overrides: list[str] = ()) -> Scenario:

@@ -42,7 +42,8 @@ def _type_name(tp) -> str:
     return getattr(tp, "__name__", str(tp))
 
 
-def _is_number(value) -> bool:
+def is_number(value) -> bool:
+    """An int or float, not a bool (YAML's true/false are not numbers here)."""
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
@@ -65,7 +66,7 @@ def _convert(tp, value, path: str, meta: dict):
     if dataclasses.is_dataclass(tp):
         return load(tp, value, path)
     if tp is float:
-        if not _is_number(value):
+        if not is_number(value):
             raise InputError(path, f"must be a number, got {quoted(value)}")
         try:
             value = float(value)
@@ -121,7 +122,7 @@ def _numbers(value):
     if isinstance(value, (list, tuple)):
         for item in value:
             yield from _numbers(item)
-    elif _is_number(value):
+    elif is_number(value):
         yield float(value)
 
 

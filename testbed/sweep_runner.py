@@ -1,98 +1,105 @@
-"""Run the cases of a sweep in parallel processes and tabulate them (one CSV row per case).
+"""Run the cases of a sweep or campaign on the engine (testbed.campaign_engine), one row each.
 
-Each case runs in a worker process (concurrent.futures with the spawn start method, so it
-works the same on every platform and never inherits a half-initialised MuJoCo); one worker
-runs the cases in this process. A case that raises, diverges or fails a check is reported
-in its row and never stops the others; a worker process that dies takes only the cases it
-had in flight with it (they are retried once in a fresh pool, then reported).
+A row is everything a case did, never an exception: `case`, the values set (a list of numbers
+as one column per component, `path[i]`), `status` (ok | diverged | error), `passed`, `error`,
+`wall_s`, the case's `seed`, derived columns (a misalignment angle), the values read back from
+the built plant and stages (`applied:path`, testbed.readback), every metric and every check
+(`check:NAME` pass/FAIL). A case whose read-back differs from what was set stops before its
+first step with status error.
 """
 
 from __future__ import annotations
 
-import csv
-import multiprocessing
+import json
+import math
 import time
 import traceback
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Callable
 
+from testbed.schema import is_number
 from testbed.sweep import Case
 
 
-def run_case(case: Case, rrd: str | None) -> dict:
-    """Run one case; everything that happens is returned as a row (never raised)."""
+def flat(values: dict, prefix: str = "") -> dict:
+    """Row cells of `values`: a list of numbers becomes `key[i]` per component, a mapping or a
+    list of anything else its JSON text, a number, string or bool itself."""
+    cells = {}
+    for key, value in values.items():
+        if isinstance(value, (list, tuple)) and value and all(is_number(v) for v in value):
+            cells.update({f"{prefix}{key}[{i}]": v for i, v in enumerate(value)})
+        elif isinstance(value, (list, tuple, dict)):
+            cells[f"{prefix}{key}"] = json.dumps(value)
+        else:
+            cells[f"{prefix}{key}"] = value
+    return cells
+
+
+def case_row(case: Case, applied: dict, status: str = "", passed: bool = False, error: str = "",
+             wall_s: float | None = None, results: dict | None = None) -> dict:
+    """The row of `case` (module doc); `applied`: testbed.readback.applied_values, `results`:
+    the metrics and the `check:NAME` cells."""
+    return ({"case": case.index, **flat(case.values), "status": status, "passed": passed, "error": error,
+             "wall_s": wall_s, "seed": case.seed, **case.derived}
+            | flat({path: value for path, (value, _) in applied.items()}, "applied:") | (results or {}))
+
+
+def expected_row(case: Case, applied: dict, metric_names, check_names) -> dict:
+    """The cells `case`'s row will hold, each with a placeholder of its kind (a table's columns)."""
+    return case_row(case, applied, wall_s=0.0, results={name: math.nan for name in metric_names}
+                    | {f"check:{name}": "" for name in check_names})
+
+
+def run_case(case: Case, rrd: str | None = None) -> dict:
+    """Run one case (its trace to `rrd` if given) and return its row (see module doc)."""
+    from testbed.readback import applied_values, check_applied
     from testbed.runner import run_scenario
     from testbed.scenario import parse
 
-    row = {"case": case.index, **case.values}
     wall0 = time.perf_counter()
+    applied: dict = {}
+
+    def read_back(plant, pipeline):
+        applied.update(applied_values(case.values, scenario, plant, pipeline.stages()))
+        check_applied(case.values, applied)
+
     try:
-        result = run_scenario(parse(case.data, case.source), Path(rrd) if rrd else None)
+        scenario = parse(case.data, case.source)
+        result = run_scenario(scenario, Path(rrd) if rrd else None, on_prepared=read_back)
     except Exception as exc:  # noqa: BLE001  (a case's failure belongs in its row)
         last = traceback.extract_tb(exc.__traceback__)[-1]
-        return row | {"status": "error", "passed": False, "wall_s": time.perf_counter() - wall0,
-                      "error": f"{type(exc).__name__}: {exc} ({Path(last.filename).name}:{last.lineno})"}
-    row |= {"status": result.status, "passed": result.passed, "wall_s": result.wall_s, "error": result.error or ""}
-    row |= result.metrics
-    row |= {f"check:{c['name']}": "pass" if c["passed"] else "FAIL" for c in result.checks}
-    return row
+        return case_row(case, applied, "error", False,
+                        f"{type(exc).__name__}: {exc} ({Path(last.filename).name}:{last.lineno})",
+                        time.perf_counter() - wall0)
+    checks = {f"check:{c['name']}": "pass" if c["passed"] else "FAIL" for c in result.checks}
+    return case_row(case, applied, result.status, result.passed, result.error or "", result.wall_s,
+                    result.metrics | checks)
 
 
-def run_cases(cases: list[Case], workers: int, rrd_dir: Path | None = None,
-              progress: Callable[[int, int, int], None] | None = None) -> list[dict]:
-    """Rows for `cases`, in case order; `progress(done, total, failed)` after each case."""
-    rrd = {c.index: str(rrd_dir / f"case{c.index:04d}.rrd") if rrd_dir else None for c in cases}
+def died_row(case: Case, reason: str) -> dict:
+    """The row of a case whose worker process died running it."""
+    return case_row(case, {}, "error", False, reason)
+
+
+def run_cases(cases: list[Case], workers: int | None = None, rrd_dir: Path | None = None,
+              progress: Callable[[int, int, int], None] | None = None, scheduler: str | None = None,
+              on_row: Callable[[dict], None] | None = None, engine=None) -> list[dict]:
+    """Rows for `cases`, in case order, run on `engine` (testbed.campaign_engine.Engine, already
+    started), else on one started here: a local cluster of `workers` processes, or the Dask
+    scheduler at `scheduler`; `on_row(row)` and `progress(done, total, failed)` after each case,
+    as it finishes."""
+    from testbed.campaign_engine import Engine, WorkerDied
+
+    if engine is None:
+        with Engine(workers, scheduler) as started:
+            return run_cases(cases, rrd_dir=rrd_dir, progress=progress, on_row=on_row, engine=started)
+    tasks = [(case, str(rrd_dir / f"case{case.index:04d}.rrd") if rrd_dir else None) for case in cases]
     rows: dict[int, dict] = {}
-
-    def finished(row):
-        rows[row["case"]] = row
+    for (case, _), outcome in engine.results(run_case, tasks, lambda task: f"case{task[0].index}"):
+        row = died_row(case, outcome.reason) if isinstance(outcome, WorkerDied) else outcome
+        rows[case.index] = row
+        if on_row:
+            on_row(row)
         if progress:
             progress(len(rows), len(cases), sum(not r["passed"] for r in rows.values()))
-
-    if workers == 1:
-        for case in cases:
-            finished(run_case(case, rrd[case.index]))
-    else:
-        pending, tries = list(cases), {c.index: 0 for c in cases}
-        while pending:
-            context = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(max_workers=min(workers, len(pending)), mp_context=context) as pool:
-                futures = {pool.submit(run_case, case, rrd[case.index]): case for case in pending}
-                pending = []
-                for future in as_completed(futures):
-                    case = futures[future]
-                    try:
-                        finished(future.result())
-                    except BrokenProcessPool:
-                        tries[case.index] += 1
-                        if tries[case.index] < 2:
-                            pending.append(case)
-                        else:
-                            finished({"case": case.index, **case.values, "status": "error", "passed": False,
-                                      "error": "the worker process died running this case"})
     return [rows[c.index] for c in cases]
-
-
-def columns(rows: list[dict], fields: list[str]) -> list[str]:
-    """case, the swept fields, status columns, then metrics and checks in first-seen order."""
-    head = ["case", *fields, "status", "passed", "error", "wall_s"]
-    rest: dict[str, None] = {}
-    for row in rows:
-        rest.update({k: None for k in row if k not in head and not k.startswith("check:")})
-    checks: dict[str, None] = {}
-    for row in rows:
-        checks.update({k: None for k in row if k.startswith("check:")})
-    return head + list(rest) + list(checks)
-
-
-def write_csv(path: Path, rows: list[dict], fields: list[str]) -> Path:
-    """One row per case; floats written with repr (round-trip exact), missing cells empty."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=columns(rows, fields), restval="")
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: repr(v) if isinstance(v, float) else v for k, v in row.items()})
-    return path

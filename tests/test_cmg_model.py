@@ -273,3 +273,35 @@ def test_readouts_after_step_describe_the_new_state_and_leave_trajectory_unchang
                 cmg.total_angular_momentum_world(fresh))
     for value, reference in zip(got, expected):
         np.testing.assert_allclose(value, reference, rtol=0, atol=1e-13 * np.abs(reference).max())
+
+
+@pytest.mark.parametrize("omega_deg_s", [[0.25, -0.25, 0.0], [0.5, -0.5, 0.5], [-0.31, 0.12, 0.44]])
+def test_cancel_initial_momentum_starts_a_zero_momentum_spacecraft(omega_deg_s):
+    """With cancel_initial_momentum the total angular momentum (MuJoCo's subtree_angmom) is zero at
+    t = 0 for any initial rate, the servos start on the moved angles, and for the flagship's rate
+    the angles are the flagship's own, computed for it by hand from H(b) = -I w(0) with the
+    locked inertia (1250, 6900, 7100) kg m^2 (scenarios/lebedev_spinup_cmg.yaml)."""
+    from testbed.runner import prepare
+    from testbed.scenario import load_scenario
+
+    scenario = load_scenario("lebedev_spinup_cmg", ["model.cancel_initial_momentum=true",
+                                                    f"initial.omega_deg_s={omega_deg_s}"])
+    plant, _, _ = prepare(scenario)
+    scale = 4 * 75.0
+    assert np.linalg.norm(plant.angular_momentum_world()) <= 1e-12 * scale
+    beta = plant.bus.gimbal_angles(plant.data)
+    assert np.array_equal(plant.data.act[plant.bus.gimbal_act_adr], beta)
+    assert np.allclose(np.degrees(plant.omega()), omega_deg_s, rtol=0, atol=1e-12)
+    if omega_deg_s == [0.25, -0.25, 0.0]:
+        assert np.allclose(np.degrees(beta), [37.07935401, -32.93984234, -52.05111216, 57.96476249], atol=1e-5)
+
+
+def test_cancel_initial_momentum_beyond_the_envelope_is_refused():
+    """|I w| = 7100 kg m^2 x 5 deg/s = 620 N m s along z: more than the 4 h = 300 N m s the cluster holds."""
+    from testbed.runner import prepare
+    from testbed.scenario import load_scenario
+
+    scenario = load_scenario("lebedev_spinup_cmg", ["model.cancel_initial_momentum=true", "initial.omega_deg_s=[0, 0, 5]"])
+    with pytest.raises(InputError) as err:
+        prepare(scenario)
+    assert err.value.field == "model.cancel_initial_momentum"

@@ -91,6 +91,12 @@ PINNED = {
         "rate_limit_violations": {"max": 0},
         "momentum_drift_rel": {"max": 1.0e-8},
     },
+    "lebedev_spinup_campaign": {
+        "spin_error_final_deg_s": {"max": 0.02},
+        "estimation_error_final_deg_s": {"max": 0.02},
+        "rate_limit_violations": {"max": 0},
+        "momentum_drift_rel": {"max": 1.0e-8},
+    },
     "lebedev_spinup_cmg_momentum": {
         "spin_error_final_deg_s": {"max": 1.0e-3},
         "estimation_error_final_deg_s": {"max": 1.0e-3},
@@ -115,6 +121,12 @@ PINNED = {
         "akor_er1_rel_err": {"max": 1e-3},
         "akor_er1_angle_sim": {"max": 0.0},
         "akor_eq16_er1_sign_matches": {"max": 0.0},
+    },
+    "reorient_campaign": {
+        "final_attitude_error_deg": {"max": 0.01},
+        "max_tracking_error_deg": {"max": 0.05},
+        "rate_limit_violations": {"max": 0},
+        "momentum_drift_rel": {"max": 1.0e-9},
     },
     "reorient_minimax": {
         "final_attitude_error_deg": {"max": 0.01},

@@ -33,6 +33,10 @@ class IdealAttitude:
         self.params = params
         self.noise = WhiteNoise(params.seed)
 
+    def applied(self) -> dict:
+        """The noise seed this sensor draws with (testbed.readback)."""
+        return {"seed": self.noise.seed}
+
     def measure(self, t, plant):
         p = self.params
         quat = plant.quat()

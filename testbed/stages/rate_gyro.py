@@ -51,6 +51,10 @@ class RateGyro:
         self.y = np.zeros(1)
         self.stamp = np.zeros(1)
 
+    def applied(self) -> dict:
+        """The sensing axis and noise seed this gyro measures with (testbed.readback)."""
+        return {"axis": self.axis.tolist(), "seed": self.noise.seed}
+
     def measure(self, t, plant):
         if self.tick % self.every_tick == 0:
             p = self.params

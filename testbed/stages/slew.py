@@ -24,7 +24,7 @@ from testbed.guidance.program_trajectory import ProgramTrajectory
 from testbed.guidance.tracking_law import TrackingLaw
 from testbed.math.validation import check_unit_vector
 from testbed.pipeline import require_free_body, stage
-from testbed.math.quaternion import quat_from_axis_angle, quat_mul, rotation_vector
+from testbed.math.quaternion import quat_conj, quat_from_axis_angle, quat_mul, rotation_vector
 from testbed.schema import join, param
 
 ZERO3 = [0.0, 0.0, 0.0]
@@ -73,6 +73,7 @@ class Slew:
             raise InputError("pipeline.estimator.type", "the slew law needs an estimator that gives quat "
                              "and omega (e.g. sensor ideal_attitude with estimator attitude)")
         self.start = params.start_s
+        self.angle_deg = params.angle_deg
         self.program = build_program(params, ctx.initial.quat)
         try:
             self.tracking = TrackingLaw(self.program, ctx.inertia, params.natural_frequency_rad_s,
@@ -82,6 +83,16 @@ class Slew:
         self.inertia = self.tracking.inertia
         # the target the run should end on: the program attitude at the last sample
         self.statistics = {"final_program_quat": self.program.attitude(ctx.end_time - self.start)}
+
+    def applied(self) -> dict:
+        """Axis, angle and duration of the program this law tracks, read from the program itself
+        (its start and target attitudes), in the scenario's keys (testbed.readback)."""
+        turn = rotation_vector(quat_mul(quat_conj(self.program.attitude(0.0)), self.program.q_ref))
+        angle = float(np.linalg.norm(turn))
+        sign = -1.0 if self.angle_deg < 0 else 1.0  # (axis, -angle) is stored as (-axis, angle)
+        axis = sign * turn / angle if angle else np.full(3, np.nan)
+        return {"axis": axis.tolist(), "angle_deg": sign * float(np.degrees(angle)),
+                "duration_s": self.program.duration}
 
     def torque(self, t, estimate):
         tau = t - self.start

@@ -124,6 +124,10 @@ class SteeringAllocator:
         self._check_options()
         self.reset_statistics()
 
+    def applied(self) -> dict:
+        """The rate limit the law is given [deg/s] (testbed.readback)."""
+        return {"beta_rate_max_deg_s": float(np.degrees(self.rate_max))}
+
     def _inputs(self, t: float, beta: np.ndarray) -> dict:
         """The step inputs (STEP_INPUTS) this law takes, at time t and gimbal angles beta."""
         inputs = {}

@@ -8,6 +8,7 @@ import numpy as np
 
 class WhiteNoise:
     def __init__(self, seed: int):
+        self.seed = seed  # kept so that a campaign can read back the seed a stage got
         self.rng = np.random.default_rng(seed)
 
     def add(self, value, sigma: float, size=None):

@@ -55,6 +55,9 @@ class CmgRhombusParams:
         clipped to it), None: unlimited.
     rotor_speed_time_constant_s: tau of the rotor speed loop; kv = Js / tau.
     gimbal_angles_deg: initial gimbal angles; the default is the zero-momentum, full-rank set.
+    cancel_initial_momentum: start a zero-momentum spacecraft whatever its initial rate: the
+        gimbals start at the set nearest gimbal_angles_deg whose cluster momentum cancels the
+        bus's, so the total angular momentum is zero (CmgPlant.initialise).
     """
 
     system: str = "cmg_rhombus"
@@ -75,6 +78,7 @@ class CmgRhombusParams:
     gimbal_rate_limit_deg_s: float | None = param(None, gt=0)
     rotor_speed_time_constant_s: float = param(0.02, gt=0)
     gimbal_angles_deg: list[float] = param([45.0, -45.0, -45.0, 45.0], length=4)
+    cancel_initial_momentum: bool = param(False, doc="move the initial gimbal angles so that the total momentum is 0")
 
     def validate(self, path: str) -> None:
         check_principal_inertia(self.inertia_kg_m2, join(path, "inertia_kg_m2"))

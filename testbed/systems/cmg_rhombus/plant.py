@@ -10,6 +10,7 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.free_bus import FreeBus
+from testbed.math.quaternion import quat_conj, quat_rotate
 from testbed.plant import Plant
 from testbed.scene import moving_parts
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTORS, ClusterGeometry
@@ -28,6 +29,9 @@ def evenly_spaced(addresses) -> slice:
     if len(steps) != 1 or min(steps) <= 0:
         raise ValueError(f"addresses {addresses} are not evenly spaced")
     return slice(addresses[0], addresses[-1] + 1, steps.pop())
+
+
+MOMENTUM_NEWTON_STEPS = 30
 
 
 class CmgRhombus(FreeBus):
@@ -127,9 +131,10 @@ class CmgPlant(Plant):
 
     def __init__(self, model, params, control_period: float):
         """`params`: the validated CmgRhombusParams `model` was built from (its servo model and
-        limits); `control_period` [s]: how long each command is held."""
+        limits, cancel_initial_momentum); `control_period` [s]: how long each command is held."""
         super().__init__(CmgRhombus(model))
         self.geometry = self.bus.geometry
+        self.cancel_initial_momentum = params.cancel_initial_momentum
         rate_limit = None if params.gimbal_rate_limit_deg_s is None else np.radians(params.gimbal_rate_limit_deg_s)
         if params.servo_model == "feedforward":
             self.servo = FeedForwardServo(self.bus, model, self.data, params.servo_natural_frequency_rad_s,
@@ -140,7 +145,33 @@ class CmgPlant(Plant):
 
     def initialise(self, initial) -> None:
         self.bus.initialise(self.data, initial.omega, initial.quat)
-        self.servo.start(self.data)
+        if self.cancel_initial_momentum:
+            self._cancel_momentum()
+        self.servo.start(self.data)  # at the gimbal angles the case starts from
+
+    def _cancel_momentum(self) -> None:
+        """Newton steps on the gimbal angles, b <- b - J(b)^+ L (J = dH/db, SEEDS §004 eq. (18);
+        the pseudo-inverse takes the least change), until the total angular momentum L (body
+        axes, from MuJoCo: spin, gimbal and bus inertia at b) is zero to 1e-13 of sum |h_i|.
+        The servo set-points follow the angles, so the servos start without an error."""
+        beta = self.bus.gimbal_angles(self.data)
+        scale = float(np.sum(self.geometry.rotor_momentum))
+        for _ in range(MOMENTUM_NEWTON_STEPS):
+            momentum = quat_rotate(quat_conj(self.quat()), self.angular_momentum_world())
+            if np.linalg.norm(momentum) <= 1e-13 * scale:
+                return
+            beta = beta - np.linalg.pinv(self.geometry.jacobian(beta)) @ momentum
+            self.data.qpos[self.bus.gimbal_qpos_adr] = beta
+            self.data.act[self.bus.gimbal_act_adr] = beta
+            mujoco.mj_forward(self.model, self.data)
+        raise InputError("model.cancel_initial_momentum",
+                         f"no gimbal set near model.gimbal_angles_deg holds the bus's momentum "
+                         f"{np.linalg.norm(momentum):.4g} N m s (cluster h = {self.geometry.h:g} N m s each)")
+
+    def applied(self) -> dict:
+        """The base read-backs plus the initial gimbal angles and the rotor momentum h as built."""
+        return super().applied() | {"model.gimbal_angles_deg": np.degrees(self.bus.gimbal_angles(self.data)).tolist(),
+                                    "model.rotor_momentum_nms": self.geometry.h}
 
     def truth(self) -> dict[str, np.ndarray]:
         signals = super().truth()

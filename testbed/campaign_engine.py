@@ -1,0 +1,189 @@
+"""The one engine that runs the cases of a sweep or campaign: Dask distributed.
+
+`Engine()` starts a local cluster inside the command, one single-threaded worker process per
+core (or `workers`); `Engine(scheduler="tcp://HOST:PORT")` submits to a cluster started with
+`dask scheduler` and `dask worker` (README, "Several machines"), refused as bad input
+when nothing answers there within SCHEDULER_TIMEOUT_S or no worker joins.
+
+`results(fn, tasks)` runs fn(*args) for every argument tuple and yields (args, outcome) as each
+finishes: fn's return value, or `WorkerDied` when the worker process running it died twice.
+The command places the tasks itself, DEPTH per worker thread (one running, the next waiting on
+that worker so that it starts the moment the first ends, with no round trip to the command),
+and the next as one finishes. A worker runs its tasks oldest first, so when it dies the
+oldest task out on it is the one that killed it: that case is handed out once more (the
+local scheduler reports every task of a dead worker at once, allowed-failures 0; another
+scheduler first retries them by its own setting, Dask's default 3 times), then reported as
+an error row; the one that waited behind it goes back in the queue, not counted. Results are
+fetched in the background as tasks finish and released once taken. Ctrl-C (or any exception
+in the caller's loop) cancels the cases out; leaving the `with` block closes the local
+cluster, stopping them. On an external cluster the ones running go on to their end (a worker
+thread cannot be stopped), their results unused.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import os
+import signal
+import threading
+import time
+import uuid
+from dataclasses import dataclass
+from typing import Any, Callable, Iterable, Iterator
+
+from distributed.diagnostics.plugin import WorkerPlugin
+
+from testbed.errors import InputError
+
+SCHEDULER_TIMEOUT_S = 5.0     # connecting to --scheduler, and again for its first worker
+RETRIES = 1  # a case whose worker died runs once more
+DEPTH = 2    # tasks out per worker thread: one running, the next ready to start when it ends
+# The local scheduler reports a dead worker's task at once (it would otherwise run it again
+# itself, possibly on a worker that is busy): the command retries it, one task per worker.
+LOCAL_CONFIG = {"distributed.scheduler.allowed-failures": 0}
+
+
+@dataclass(frozen=True)
+class WorkerDied:
+    """The outcome of a task whose worker process died (twice, on the local cluster)."""
+
+    reason: str
+
+
+def _warm_up() -> str:
+    """Run once in every worker: import the testbed and register its systems and stages, so
+    that the first case on a worker does not pay for it."""
+    from testbed.plugins import discover
+
+    discover()
+    return "ready"
+
+
+class LocalWorker(WorkerPlugin):
+    """Set up every worker process of the local cluster, a restarted one too: Ctrl-C on the
+    terminal reaches the whole process group, so the workers ignore it and the command stops
+    them in order; and the testbed is loaded before the first case."""
+
+    def setup(self, worker) -> None:
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+        _warm_up()
+
+
+class Engine:
+    def __init__(self, workers: int | None = None, scheduler: str | None = None):
+        self.workers = workers or os.cpu_count() or 1
+        self.scheduler = scheduler
+        self.client = self.cluster = None
+
+    def __enter__(self) -> "Engine":
+        import dask
+        from distributed import Client, LocalCluster
+
+        if self.scheduler is None:
+            with dask.config.set(LOCAL_CONFIG):
+                # no dashboard; the scheduler's own HTTP endpoint on a free loopback port, not 8787
+                self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
+                                            dashboard_address=None, silence_logs=logging.CRITICAL,
+                                            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})
+                self.client = Client(self.cluster)
+        else:
+            self.client = _connect(self.scheduler)
+        try:
+            if self.cluster is not None:
+                self.client.register_plugin(LocalWorker())
+            else:
+                self.client.run(_warm_up)
+        except Exception as exc:  # noqa: BLE001  (a worker that cannot import the testbed)
+            self.__exit__(None, None, None)
+            raise InputError("--scheduler" if self.scheduler else "workers",
+                             f"a worker cannot load the testbed: {type(exc).__name__}: {exc}") from None
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        for part in (self.client, self.cluster):
+            if part is not None:
+                try:
+                    part.close()
+                except Exception:  # noqa: BLE001  (closing after an interrupt: best effort)
+                    pass
+        self.client = self.cluster = None
+
+    @property
+    def worker_count(self) -> int:
+        return len(self.client.scheduler_info(n_workers=-1)["workers"])
+
+    def results(self, fn: Callable, tasks: Iterable[tuple], name: Callable[[tuple], str] = str
+                ) -> Iterator[tuple[tuple, Any]]:
+        """(args, fn(*args) or WorkerDied) for every argument tuple in `tasks`, in the order they
+        finish; name(args) names the task (uniquely) on the scheduler. Each worker thread has
+        DEPTH tasks out, the oldest running; when a worker dies, its oldest task is the one
+        that killed it, handed out RETRIES times more, and the others go back in the queue
+        (module doc)."""
+        from distributed import KilledWorker, as_completed
+
+        batch = uuid.uuid4().hex[:8]  # keys stay unique on a scheduler shared by several campaigns
+        pending = collections.deque(tasks)  # a case handed out again goes first
+        deaths: dict[str, int] = {}         # name -> how often a worker died running it
+        out: dict = {}                      # future -> (args, worker address)
+        queues: dict[str, list] = {}        # worker address -> its futures, oldest first
+        finished = as_completed([], with_results=True, raise_errors=False)
+
+        def hand_out() -> None:
+            for address, worker in self.client.scheduler_info()["workers"].items():
+                queue = queues.setdefault(address, [])
+                while pending and len(queue) < DEPTH * worker["nthreads"]:
+                    args = pending.popleft()
+                    key = f"{name(args)}-{batch}-{uuid.uuid4().hex[:8]}"  # a case handed out again gets a new key
+                    future = self.client.submit(fn, *args, key=key, pure=False, workers=[address],
+                                                allow_other_workers=True)
+                    out[future] = (args, address)
+                    queue.append(future)
+                    finished.add(future)
+
+        try:
+            while pending or out:
+                hand_out()
+                if not out:  # every worker died and none is back yet
+                    time.sleep(0.1)
+                    continue
+                future, outcome = next(finished)
+                args, address = out.pop(future)
+                culprit = queues[address][0] is future
+                queues[address].remove(future)
+                failed = future.status == "error"
+                future.release()
+                if isinstance(outcome, BaseException):  # cancelled: the cluster went away
+                    raise outcome
+                if failed:  # outcome is (type, exception, traceback)
+                    if not isinstance(outcome[1], KilledWorker):
+                        raise outcome[1]
+                    if culprit:
+                        deaths[name(args)] = deaths.get(name(args), 0) + 1
+                    if not culprit or deaths[name(args)] <= RETRIES:  # one that waited behind it is not to blame
+                        pending.appendleft(args)
+                        continue
+                    outcome = WorkerDied(f"the worker process died running it, {deaths[name(args)]} times")
+                yield args, outcome
+        finally:
+            if out:
+                self.client.cancel(list(out))
+
+
+def _connect(address: str):
+    """A client of the scheduler at `address` with at least one worker; bad input otherwise."""
+    from distributed import Client
+
+    try:
+        client = Client(address, timeout=SCHEDULER_TIMEOUT_S)
+    except Exception as exc:  # noqa: BLE001  (refused, timed out, or not a Dask scheduler at all)
+        raise InputError("--scheduler", f"no Dask scheduler answers at {address} within "
+                                        f"{SCHEDULER_TIMEOUT_S:g} s ({type(exc).__name__}: {exc})") from None
+    try:
+        client.wait_for_workers(1, timeout=SCHEDULER_TIMEOUT_S)
+    except Exception:  # noqa: BLE001
+        client.close()
+        raise InputError("--scheduler", f"the Dask scheduler at {address} has no worker "
+                                        f"(none joined within {SCHEDULER_TIMEOUT_S:g} s)") from None
+    return client
