@@ -4,7 +4,8 @@ Entity paths: `<group>/<signal>` for every recorded signal (groups `truth`, `sen
 `estimator`, `law`, `allocator`, `reference`), `world/bus` (attitude as a transform with the
 bus box), `world/angular_momentum` (total, world frame), `world/bus/<name>` for each
 body-frame momentum the plant's scene names (e.g. an actuator cluster's) and `run/result` (the metrics and checks as JSON, read back by
-`testbed inspect`). Everything is buffered and sent with `send_columns` on `sim_time`.
+`testbed inspect`). Signals are sent with `send_columns` on `sim_time`, a chunk of samples at a
+time as the run goes (`TraceWriter`).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from testbed.errors import InputError, quoted
-from testbed.recorder import Recorder, Trace
+from testbed.recorder import Trace
 
 APP_ID = "gyrodyne-testbed"
 RESULT_ENTITY = "run/result"
@@ -57,13 +58,14 @@ def _series_names(name: str, width: int, units: dict) -> list[str]:
 GROUP_ORDER = ["truth", "reference", "sensor", "estimator", "law", "allocator"]
 
 
-def _blueprint(recorder: Recorder, scene: dict | None) -> rrb.Blueprint:
+def _blueprint(keys, t_end: float, scene: dict | None) -> rrb.Blueprint:
+    """The default layout: the 3D scene and the result on the left, a tab of plots per group
+    (`keys`: the signals), each over the whole run [0, t_end] s."""
     groups: dict[str, list[str]] = {}
-    for key in sorted(recorder.keys(), key=lambda k: (GROUP_ORDER.index(k.split("/")[0])
+    for key in sorted(keys, key=lambda k: (GROUP_ORDER.index(k.split("/")[0])
                                                      if k.split("/")[0] in GROUP_ORDER else 99, k)):
         groups.setdefault(key.split("/")[0], []).append(key)
     # Every plot shows the whole run (not a window around the time cursor), legend out of the way.
-    t_end = float(recorder.time[-1]) if recorder.count else 1.0
     whole_run = rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.absolute(seconds=0.0),
                                                       end=rrb.TimeRangeBoundary.absolute(seconds=t_end)))
     tabs = [rrb.Grid(*[rrb.TimeSeriesView(origin=f"/{key}", name=key, axis_x=whole_run,
@@ -87,37 +89,79 @@ def _blueprint(recorder: Recorder, scene: dict | None) -> rrb.Blueprint:
     )
 
 
-def write_rrd(path: Path, recorder: Recorder, result: dict, scene: dict | None = None) -> Path:
-    """Write `recorder`'s signals, the optional 3D `scene` and `result` to `path` (atomically,
-    see `recording_to`; `path` should come from `output_path`). `scene` may hold
-    `bus_half_size` (3,) [m] and a `momentum_scale` [m per N m s] for the arrows,
-    `body_momenta` {signal key: entity name} of body-frame momenta to draw on the bus, and
-    `units` {signal name: unit} beside UNITS.
+class TraceWriter:
+    """A run streamed to a Rerun recording chunk by chunk (`write`), then its result (`finish`).
+
+    Each chunk goes out with `send_columns` on `sim_time` and is flushed, so that a file sink
+    holds every chunk written so far if the process dies (SIGKILL included); until `finish`
+    the stored `run/result` says the run did not finish. `scene` may hold `bus_half_size` (3,)
+    [m] and a `momentum_scale` [m per N m s] for the arrows, `body_momenta` {signal key: entity
+    name} of body-frame momenta to draw on the bus, and `units` {signal name: unit} beside UNITS.
     """
-    with recording_to(path) as rec:
-        _write_streams(rec, recorder, result, scene)
-    return Path(path)
+
+    def __init__(self, rec, scenario_name: str, end_time: float, scene: dict | None = None):
+        self.rec, self.end_time, self.scene = rec, end_time, scene
+        self.units = UNITS | (scene or {}).get("units", {})
+        self.keys: dict[str, None] = {}  # every signal written, in order
+        unfinished = {"scenario": scenario_name, "sim_s": 0.0, "wall_s": 0.0, "status": "error",
+                      "error": "the run did not finish: this trace holds the chunks written before it stopped",
+                      "metrics": {}, "checks": []}
+        self._log_result(unfinished)
+        if scene is not None:
+            _write_scene_static(rec, scene)
+
+    def write(self, chunk) -> None:
+        """Send one chunk's signals (and the 3D scene at its samples), then flush it out."""
+        rec = self.rec
+        times = rr.TimeColumn(TIMELINE, duration=chunk.time)
+        new = [key for key in chunk.signals if key not in self.keys]
+        for key, values in chunk.signals.items():
+            values = np.asarray(values, float).reshape(len(chunk.time), -1)
+            if key in new:
+                name = key.rsplit("/", 1)[-1]
+                rec.log(key, rr.SeriesLines(names=_series_names(name, values.shape[1], self.units)), static=True)
+            rec.send_columns(key, indexes=[times], columns=rr.Scalars.columns(scalars=values))
+        if self.scene is not None:
+            _write_scene(rec, chunk, times, self.scene)
+        if new:
+            self.keys.update(dict.fromkeys(new))
+            rec.send_blueprint(_blueprint(self.keys, self.end_time, self.scene))
+        rec.flush()
+
+    def finish(self, result: dict) -> None:
+        """Store the run's result (metrics and checks), replacing the unfinished one."""
+        self._log_result(result)
+        self.rec.log("run/summary", rr.TextDocument(_summary_markdown(result), media_type="text/markdown"), static=True)
+
+    def _log_result(self, result: dict) -> None:
+        self.rec.log(RESULT_ENTITY, rr.TextDocument(json.dumps(result, indent=1), media_type="text/plain"), static=True)
 
 
 @contextlib.contextmanager
-def recording_to(path, application: str = APP_ID):
-    """A Rerun recording saved to a unique temporary file beside `path` and renamed onto it when
-    the block ends (atomic): an interrupted write leaves nothing behind (the temporary file is
-    removed on any exception, Ctrl-C and SIGTERM included), and two writers of one path each
-    leave a whole file."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+def recording_to(path, application: str = APP_ID, live: list | None = None):
+    """A Rerun recording saved to a unique temporary file beside `path` (None: no file) and
+    renamed onto it when the block ends (atomic): an interrupted write leaves nothing behind
+    (the temporary file is removed on any exception, Ctrl-C and SIGTERM included), two writers
+    of one path each leave a whole file, and a process killed outright (SIGKILL) leaves the
+    temporary file `.<name>.<random>.partial`, readable up to its last flush. `live`: further
+    Rerun sinks (`rr.GrpcSink(url)` for a viewer) that receive the same stream."""
     partial, rec = None, None
     try:
-        handle, partial = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".partial")
-        os.close(handle)
+        sinks = list(live or [])
+        if path is not None:
+            path = Path(path)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            handle, partial = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".partial")
+            os.close(handle)
+            sinks.append(rr.FileSink(partial))
         rec = rr.RecordingStream(application, recording_id=str(uuid.uuid4()))
-        rec.save(partial)  # before logging, so nothing is buffered for a viewer
+        rec.set_sinks(*sinks)  # before logging, so nothing is buffered for a viewer
         yield rec
         rec.flush()
         rec.disconnect()
-        os.chmod(partial, 0o666 & ~_umask())  # mkstemp made it private; a trace is an ordinary file
-        os.replace(partial, path)
+        if partial is not None:
+            os.chmod(partial, 0o666 & ~_umask())  # mkstemp made it private; a trace is an ordinary file
+            os.replace(partial, path)
     except BaseException:
         if rec is not None:
             rec.disconnect()
@@ -175,41 +219,29 @@ def check_creatable(path: Path, field: str) -> None:
     os.unlink(probe)
 
 
-def _write_streams(rec, recorder: Recorder, result: dict, scene: dict | None) -> None:
-    rec.send_blueprint(_blueprint(recorder, scene))
-    times = rr.TimeColumn(TIMELINE, duration=recorder.time)
-    units = UNITS | (scene or {}).get("units", {})
-    for key in recorder.keys():
-        values = np.asarray(recorder[key], float)
-        if values.ndim == 1:
-            values = values[:, None]
-        values = values.reshape(len(values), -1)
-        name = key.rsplit("/", 1)[-1]
-        rec.log(key, rr.SeriesLines(names=_series_names(name, values.shape[1], units)), static=True)
-        rec.send_columns(key, indexes=[times], columns=rr.Scalars.columns(scalars=values))
-    if scene is not None:
-        _write_scene(rec, recorder, times, scene)
-    rec.log(RESULT_ENTITY, rr.TextDocument(json.dumps(result, indent=1), media_type="text/plain"), static=True)
-    rec.log("run/summary", rr.TextDocument(_summary_markdown(result), media_type="text/markdown"), static=True)
-
-
-def _write_scene(rec, recorder: Recorder, times, scene: dict) -> None:
+def _write_scene_static(rec, scene: dict) -> None:
     half = np.asarray(scene.get("bus_half_size", [0.5, 0.5, 0.5]), float)
     rec.log("world/bus", rr.Boxes3D(half_sizes=[half], colors=[[170, 175, 190, 90]], fill_mode="solid"), static=True)
     rec.log("world/bus/axes", rr.Arrows3D(vectors=np.eye(3) * 1.5 * half.max(),
                                           colors=[[220, 60, 60], [60, 200, 60], [60, 60, 220]],
                                           labels=["x", "y", "z"]), static=True)
-    if "truth/quat" in recorder:
-        q = recorder["truth/quat"]
+
+
+def _write_scene(rec, chunk, times, scene: dict) -> None:
+    """The bus attitude and the momentum arrows at a chunk's samples."""
+    signals = chunk.signals
+    if "truth/quat" in signals:
+        q = signals["truth/quat"]
         rec.send_columns("world/bus", indexes=[times],
                          columns=rr.Transform3D.columns(quaternion=q[:, [1, 2, 3, 0]]))  # Rerun: xyzw
     # Arrows about twice the bus size, so they stick out of the box.
+    half = np.asarray(scene.get("bus_half_size", [0.5, 0.5, 0.5]), float)
     scale = float(scene.get("momentum_scale", 1.0)) * 2.0 * float(half.max())
     arrows = [("truth/angular_momentum_world", "world/angular_momentum", [250, 200, 40])] + [
         (key, f"world/bus/{name}", [240, 110, 30]) for key, name in scene.get("body_momenta", {}).items()]
     for key, entity, color in arrows:
-        if key in recorder:
-            vectors = recorder[key] * scale
+        if key in signals:
+            vectors = signals[key] * scale
             rec.send_columns(entity, indexes=[times],
                              columns=rr.Arrows3D.columns(vectors=vectors, origins=np.zeros_like(vectors),
                                                          colors=np.tile(color, (len(vectors), 1))))
