@@ -83,6 +83,7 @@ def test_a_run_killed_with_sigkill_leaves_a_readable_partial_trace(killed_run):
     assert result["status"] == "error" and "did not finish" in result["error"]
 
 
+@pytest.mark.filterwarnings("ignore:RRD file has no footer")  # a killed writer never wrote it
 def test_the_partial_trace_holds_the_true_samples(killed_run):
     """The signals read back from the killed run equal a complete run of the same scenario
     stopped before the kill, sample for sample."""
@@ -100,3 +101,89 @@ def test_the_partial_trace_holds_the_true_samples(killed_run):
     n = len(t)
     assert n == CHUNK_ROWS and np.array_equal(omega, omega_whole[:n])
     assert np.allclose(t, t_whole[:n], atol=1e-9)
+
+
+@pytest.fixture
+def receiver(tmp_path):
+    """A viewer-less Rerun gRPC receiver (`rerun --port P --save FILE`, no window): what a
+    viewer would be sent lands in FILE as it arrives. Yields (url, FILE)."""
+    import socket
+    import time
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    received = tmp_path / "received.rrd"
+    log = tmp_path / "receiver.log"
+    with open(log, "w") as handle:
+        proc = subprocess.Popen([str(Path(sys.executable).with_name("rerun")), "--port", str(port), "--save",
+                                 str(received)], stdout=handle, stderr=subprocess.STDOUT)
+    try:
+        deadline = time.monotonic() + 30
+        while "Listening" not in log.read_text() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert "Listening" in log.read_text(), log.read_text()
+        yield f"rerun+http://127.0.0.1:{port}/proxy", received
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)
+
+
+def _rows_received(path: Path, entity: str) -> int:
+    """Rows of `entity` in a file another process is still writing (a torn last message is skipped)."""
+    from rerun.chunk import RrdReader
+
+    rows = 0
+    try:
+        for chunk in RrdReader(str(path)).stream():
+            if str(chunk.entity_path) == entity:
+                rows += chunk.to_record_batch().num_rows
+    except Exception:  # noqa: BLE001  (the writer is mid-message)
+        pass
+    return rows
+
+
+def test_a_live_sink_receives_the_run_in_chunks_before_it_ends(receiver, tmp_path):
+    """`--connect URL` (and `--view`, which connects to the viewer it spawns): the receiver holds
+    two whole chunks of samples while the run is still going (checked from inside the run, at
+    its last progress report), and the whole trace once it ends; the .rrd is written too."""
+    import time
+    import warnings
+
+    from testbed.cli import _live_sinks, main
+    from testbed.runner import run_scenario
+    from testbed.scenario import load_scenario
+
+    url, received = receiver
+    scenario = load_scenario("torque_free_tumble", ["sim.duration_s=120", "sim.control_period_s=0.01",
+                                                    "sim.trace_period_s=0.01"])
+    samples = round(120 / 0.01) + 1
+    during = []
+
+    def progress(fraction):
+        if fraction >= 0.9 and not during:  # 10 800 samples recorded: two chunks flushed by now
+            deadline = time.monotonic() + 30
+            while _rows_received(received, "/truth/omega") < 2 * CHUNK_ROWS and time.monotonic() < deadline:
+                time.sleep(0.2)
+            during.append(_rows_received(received, "/truth/omega"))
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the receiver's file has no footer until it closes
+        result = run_scenario(scenario, tmp_path / "live.rrd", progress=progress, live=_live_sinks(False, url))
+        assert result.status == "ok" and (tmp_path / "live.rrd").exists()
+        assert during and 2 * CHUNK_ROWS <= during[0] - 1 < samples  # more than one chunk, not all of it
+        deadline = time.monotonic() + 30
+        while _rows_received(received, "/truth/omega") < samples + 1 and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert _rows_received(received, "/truth/omega") == samples + 1  # + the series' static row
+        # the command line's flag reaches the same receiver
+        assert main(["run", "torque_free_tumble", "--set", "sim.duration_s=10", "--out",
+                     str(tmp_path / "cli.rrd"), "--connect", url]) == 0
+
+
+def test_a_malformed_connect_url_is_bad_input(tmp_path, capsys):
+    from testbed.cli import main
+
+    assert main(["run", "torque_free_tumble", "--out", str(tmp_path / "x.rrd"), "--connect", "localhost:9876"]) == 2
+    assert capsys.readouterr().err.startswith("error: --connect: ")
+    assert list(tmp_path.iterdir()) == []
