@@ -28,12 +28,14 @@ from testbed.scenario import load_scenario
 name, overrides, write, connect = sys.argv[1], json.loads(sys.argv[2]), sys.argv[3] == "1", sys.argv[4]
 scenario = load_scenario(name, overrides)
 with tempfile.TemporaryDirectory() as tmp:
-    sinks = {}
-    if connect == "server":  # a viewer-less gRPC server in this process, as `--connect` reaches a viewer
+    live = None
+    if connect == "server":  # a viewer-less gRPC server in this process, reached as `--connect URL` reaches a viewer
         import rerun as rr
-        sinks["connect"] = rr.serve_grpc(grpc_port=9897, server_memory_limit="64MB")
+        server = rr.RecordingStream("bench-sink")  # kept: the server lives as long as its stream
+        url = server.serve_grpc(grpc_port=9897, server_memory_limit="64MB")
+        live = [rr.GrpcSink(url)]
     t0 = time.perf_counter()
-    result = run_scenario(scenario, Path(tmp) / "run.rrd" if write else None, **sinks)
+    result = run_scenario(scenario, Path(tmp) / "run.rrd" if write else None, live=live)
     wall = time.perf_counter() - t0
     size = (Path(tmp) / "run.rrd").stat().st_size if write else 0
 print(json.dumps({"status": result.status, "wall_s": wall, "rrd_mb": size / 1e6,
