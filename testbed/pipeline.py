@@ -59,6 +59,7 @@ class StageContext:
     integrator: str = "RK4"
     end_time: float = float("inf")  # time of the run's last sample [s]
     stages: dict = field(default_factory=dict)  # slot -> StageInfo of every configured stage
+    actuators: dict = field(default_factory=dict)  # what the actuators' encoders report at t = 0
 
 
 Signals = dict[str, np.ndarray]

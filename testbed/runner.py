@@ -89,7 +89,7 @@ def prepare(scenario):
         plant = systems_registry.make_plant(scenario)
         plant.record_energy = scenario.stages["allocator"][0] == "none"
         plant.initialise(scenario.initial)
-        ctx = stage_context(scenario, plant.locked_inertia(), plant.description())
+        ctx = stage_context(scenario, plant.locked_inertia(), plant.description(), plant.actuator_state())
     with np.errstate(all="raise"):
         pipeline = Pipeline.from_config(scenario.stages, ctx, plant.actuators)
     output = getattr(pipeline.allocator, "output", None)
@@ -110,15 +110,16 @@ def _refused_as(field: str):
         raise InputError(field, f"its parameters cannot be built: {type(exc).__name__}: {exc}") from None
 
 
-def stage_context(scenario, inertia, description=None) -> StageContext:
-    """What the stages of `scenario` may know at construction (testbed.pipeline.StageContext)."""
+def stage_context(scenario, inertia, description=None, actuators=None) -> StageContext:
+    """What the stages of `scenario` may know at construction (testbed.pipeline.StageContext);
+    `actuators`: the plant's actuator read-outs at t = 0."""
     sim = scenario.sim
     return StageContext(dt=sim.dt_s, control_period=sim.control_period_s, inertia=inertia,
                         description=description, system=scenario.system, model=scenario.model,
                         free_flying=systems_registry.is_free_flying(scenario),
                         initial=scenario.initial, integrator=sim.integrator,
                         end_time=round(sim.duration_s / sim.control_period_s) * sim.control_period_s,
-                        stages=stage_infos(scenario.stages))
+                        stages=stage_infos(scenario.stages), actuators=dict(actuators or {}))
 
 
 def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = False,

@@ -6,6 +6,15 @@ bus box), `world/angular_momentum` (total, world frame), `world/bus/<name>` for 
 body-frame momentum the plant's scene names (e.g. an actuator cluster's) and `run/result` (the metrics and checks as JSON, read back by
 `testbed inspect`). Signals are sent with `send_columns` on `sim_time`, a chunk of samples at a
 time as the run goes (`TraceWriter`).
+
+A plant's scene may add (testbed.scene builds them from the compiled model):
+- `moving_parts`: bodies on the bus, drawn at `world/bus/<body>/<child>...`, each a transform
+  (turning with its hinge's recorded angle, or fixed), its geoms as `.../boxes` and
+  `.../cylinders`, and optional momentum `arrows` in its frame as `.../momentum`;
+- `momentum_space`: a second 3D view at `momentum_space/`: point-cloud `surfaces` (name, points
+  (m, 3), color), the recorded `path` signal as `momentum_space/path/<k>` (one strip a chunk,
+  segments coloured by the recorded `measure` over `measure_range`: red low, green high) and
+  its current value as `momentum_space/now`.
 """
 
 from __future__ import annotations
@@ -24,6 +33,7 @@ import rerun.blueprint as rrb
 
 from testbed.errors import InputError, quoted
 from testbed.recorder import Trace
+from testbed.scene import hinge_poses
 
 APP_ID = "gyrodyne-testbed"
 RESULT_ENTITY = "run/result"
@@ -56,11 +66,13 @@ def _series_names(name: str, width: int, units: dict) -> list[str]:
 
 
 GROUP_ORDER = ["truth", "reference", "sensor", "estimator", "law", "allocator"]
+MOMENTUM_SPACE = "momentum_space"
 
 
-def _blueprint(keys, t_end: float, scene: dict | None) -> rrb.Blueprint:
+def _blueprint(keys, t_end: float, scene: dict | None, path=None) -> rrb.Blueprint:
     """The default layout: the 3D scene and the result on the left, a tab of plots per group
-    (`keys`: the signals), each over the whole run [0, t_end] s."""
+    (`keys`: the signals), each over the whole run [0, t_end] s; `path`: the momentum-space
+    path recorded so far (the view looks at it side-on)."""
     groups: dict[str, list[str]] = {}
     for key in sorted(keys, key=lambda k: (GROUP_ORDER.index(k.split("/")[0])
                                                      if k.split("/")[0] in GROUP_ORDER else 99, k)):
@@ -76,17 +88,39 @@ def _blueprint(keys, t_end: float, scene: dict | None) -> rrb.Blueprint:
     left = []
     if scene is not None:
         # Look at the bus from outside, from a (1, -1.2, 0.8) direction, z up.
-        eye = 4.0 * max(scene.get("bus_half_size", [0.5])) * np.array([1.0, -1.2, 0.8])
+        eye = 2.5 * max(scene.get("bus_half_size", [0.5])) * np.array([1.0, -1.2, 0.8])
         left.append(rrb.Spatial3DView(origin="/world", name="attitude and momentum",
                                       eye_controls=rrb.EyeControls3D(position=eye, look_target=[0, 0, 0],
                                                                      eye_up=[0, 0, 1])))
-    left.append(rrb.TextDocumentView(origin="/run/summary", name="result"))
+    space = (scene or {}).get("momentum_space")
+    if space is not None:
+        eye = 2.3 * _extent(space) * _side_view(np.zeros((1, 3)) if path is None else path)
+        left.append(rrb.Spatial3DView(origin=f"/{MOMENTUM_SPACE}", name=space.get("title", "momentum"),
+                                      eye_controls=rrb.EyeControls3D(position=eye, look_target=[0, 0, 0],
+                                                                     eye_up=[0, 0, 1])))
+        plots = rrb.Vertical(plots, rrb.TextDocumentView(origin="/run/summary", name="result"), row_shares=[3, 1])
+    else:
+        left.append(rrb.TextDocumentView(origin="/run/summary", name="result"))
     return rrb.Blueprint(
-        rrb.Horizontal(rrb.Vertical(*left, row_shares=[3, 2][: len(left)]), plots, column_shares=[2, 3]),
+        rrb.Horizontal(rrb.Vertical(*left, row_shares=[3, 2][: len(left)] if space is None else [1, 1]), plots,
+                       column_shares=[2, 3]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
-        rrb.TimePanel(state="collapsed"),
+        rrb.TimePanel(state="collapsed", play_state="following"),  # opens on the run's end
     )
+
+
+def _side_view(path: np.ndarray) -> np.ndarray:
+    """A unit eye direction that sees a recorded 3D path side-on: perpendicular to its farthest
+    point's direction, raised 30 deg (from (1, -1.2, 0.8) when the path stays at the origin)."""
+    farthest = path[np.argmax(np.linalg.norm(path, axis=1))] if len(path) else np.zeros(3)
+    if np.linalg.norm(farthest) == 0.0:
+        return np.array([1.0, -1.2, 0.8]) / np.linalg.norm([1.0, -1.2, 0.8])
+    side = np.cross(farthest, [0.0, 0.0, 1.0])
+    if np.linalg.norm(side) < 1e-6 * np.linalg.norm(farthest):  # a path along z: look along x
+        side = np.array([1.0, 0.0, 0.0])
+    side = side / np.linalg.norm(side)
+    return np.cos(np.radians(30)) * side + np.sin(np.radians(30)) * np.array([0.0, 0.0, 1.0])
 
 
 class TraceWriter:
@@ -103,6 +137,8 @@ class TraceWriter:
         self.rec, self.end_time, self.scene = rec, end_time, scene
         self.units = UNITS | (scene or {}).get("units", {})
         self.keys: dict[str, None] = {}  # every signal written, in order
+        self.path_end = None  # the momentum-space path's last point and colour, to join the next chunk's strip
+        self.strips = 0
         unfinished = {"scenario": scenario_name, "sim_s": 0.0, "wall_s": 0.0, "status": "error",
                       "error": "the run did not finish: this trace holds the chunks written before it stopped",
                       "metrics": {}, "checks": []}
@@ -123,10 +159,34 @@ class TraceWriter:
             rec.send_columns(key, indexes=[times], columns=rr.Scalars.columns(scalars=values))
         if self.scene is not None:
             _write_scene(rec, chunk, times, self.scene)
+            if "momentum_space" in self.scene:
+                self._write_path(chunk, times, self.scene["momentum_space"])
         if new:
             self.keys.update(dict.fromkeys(new))
-            rec.send_blueprint(_blueprint(self.keys, self.end_time, self.scene))
+            space = (self.scene or {}).get("momentum_space")
+            path = chunk.signals.get(space["path"]) if space else None
+            rec.send_blueprint(_blueprint(self.keys, self.end_time, self.scene, path))
         rec.flush()
+
+    def _write_path(self, chunk, times, space: dict) -> None:
+        """The momentum-space path of a chunk (one static strip a chunk, joined to the last) and its current point."""
+        if space["path"] not in chunk.signals:
+            return
+        path = np.asarray(chunk.signals[space["path"]], float)
+        measure = np.asarray(chunk.signals[space["measure"]], float).reshape(len(path), -1)[:, 0] \
+            if space.get("measure") in chunk.signals else np.full(len(path), np.nan)
+        colors = measure_colors(measure, space.get("measure_range", (0.0, 1.0)))
+        radius = 0.003 * _extent(space)
+        points = path if self.path_end is None else np.vstack([self.path_end, path])
+        if len(points) > 1:
+            self.rec.log(f"{MOMENTUM_SPACE}/path/{self.strips}",
+                         rr.LineStrips3D(np.stack([points[:-1], points[1:]], axis=1), colors=colors[-(len(points) - 1):],
+                                         radii=2.0 * radius), static=True)
+            self.strips += 1
+        self.path_end = path[-1:]
+        self.rec.send_columns(f"{MOMENTUM_SPACE}/now", indexes=[times],
+                              columns=rr.Points3D.columns(positions=path, colors=colors,
+                                                          radii=np.full(len(path), 6.0 * radius)))
 
     def finish(self, result: dict) -> None:
         """Store the run's result (metrics and checks), replacing the unfinished one."""
@@ -189,6 +249,8 @@ def output_path(out, field: str = "--out") -> Path:
     existing folder writable, a name the file system takes. A symlink is written through (its
     target is replaced, the link stays)."""
     text = str(out)
+    if not text:  # Path("") is the current folder
+        raise InputError(field, "is empty; give a file name such as run.rrd")
     try:
         path = Path(text).expanduser()
         if text.endswith(("/", os.sep)) or path.is_dir():
@@ -220,11 +282,28 @@ def check_creatable(path: Path, field: str) -> None:
 
 
 def _write_scene_static(rec, scene: dict) -> None:
+    """What does not move: the bus box and axes, the moving parts' shapes, the momentum-space surfaces."""
     half = np.asarray(scene.get("bus_half_size", [0.5, 0.5, 0.5]), float)
-    rec.log("world/bus", rr.Boxes3D(half_sizes=[half], colors=[[170, 175, 190, 90]], fill_mode="solid"), static=True)
+    # a solid translucent bus, or its edges only when parts inside it are drawn
+    fill = "majorwireframe" if scene.get("moving_parts") else "solid"
+    rec.log("world/bus", rr.Boxes3D(half_sizes=[half], colors=[[170, 175, 190, 90]], fill_mode=fill), static=True)
     rec.log("world/bus/axes", rr.Arrows3D(vectors=np.eye(3) * 1.5 * half.max(),
                                           colors=[[220, 60, 60], [60, 200, 60], [60, 60, 220]],
                                           labels=["x", "y", "z"]), static=True)
+    for part in scene.get("moving_parts", []):
+        _write_part_static(rec, part, _momentum_scale(scene))
+    space = scene.get("momentum_space")
+    if space is not None:
+        radius = 0.003 * _extent(space)
+        for surface in space["surfaces"]:
+            rec.log(f"{MOMENTUM_SPACE}/{surface['name']}",
+                    rr.Points3D(np.asarray(surface["points"], float), colors=[surface["color"]], radii=radius), static=True)
+
+
+def _momentum_scale(scene: dict) -> float:
+    """Metres of arrow per N m s: arrows about twice the bus size, so they stick out of the box."""
+    half = np.asarray(scene.get("bus_half_size", [0.5, 0.5, 0.5]), float)
+    return float(scene.get("momentum_scale", 1.0)) * 2.0 * float(half.max())
 
 
 def _write_scene(rec, chunk, times, scene: dict) -> None:
@@ -234,9 +313,7 @@ def _write_scene(rec, chunk, times, scene: dict) -> None:
         q = signals["truth/quat"]
         rec.send_columns("world/bus", indexes=[times],
                          columns=rr.Transform3D.columns(quaternion=q[:, [1, 2, 3, 0]]))  # Rerun: xyzw
-    # Arrows about twice the bus size, so they stick out of the box.
-    half = np.asarray(scene.get("bus_half_size", [0.5, 0.5, 0.5]), float)
-    scale = float(scene.get("momentum_scale", 1.0)) * 2.0 * float(half.max())
+    scale = _momentum_scale(scene)
     arrows = [("truth/angular_momentum_world", "world/angular_momentum", [250, 200, 40])] + [
         (key, f"world/bus/{name}", [240, 110, 30]) for key, name in scene.get("body_momenta", {}).items()]
     for key, entity, color in arrows:
@@ -245,6 +322,56 @@ def _write_scene(rec, chunk, times, scene: dict) -> None:
             rec.send_columns(entity, indexes=[times],
                              columns=rr.Arrows3D.columns(vectors=vectors, origins=np.zeros_like(vectors),
                                                          colors=np.tile(color, (len(vectors), 1))))
+    for part in scene.get("moving_parts", []):
+        hinge = part["hinge"]
+        if hinge is not None and hinge["signal"] in signals:
+            translations, quats = hinge_poses(part, signals[hinge["signal"]][:, hinge["column"]])
+            rec.send_columns(f"world/bus/{part['entity']}", indexes=[times],
+                             columns=rr.Transform3D.columns(translation=translations, quaternion=_xyzw(quats)))
+
+
+def _xyzw(quat) -> np.ndarray:
+    """MuJoCo's (w, x, y, z) as Rerun's (x, y, z, w), for (4,) or (N, 4)."""
+    return np.asarray(quat, float)[..., [1, 2, 3, 0]]
+
+
+def _write_part_static(rec, part: dict, scale: float) -> None:
+    """One moving part (testbed.scene.moving_parts): its frame when no hinge turns it, its geoms,
+    its momentum arrows (the hinged frames follow their signals chunk by chunk, `_write_scene`)."""
+    entity = f"world/bus/{part['entity']}"
+    if part["hinge"] is None:
+        rec.log(entity, rr.Transform3D(translation=part["pos"], quaternion=_xyzw(part["quat"])), static=True)
+    for kind in ("box", "cylinder"):
+        shapes = [shape for shape in part["shapes"] if shape["kind"] == kind]
+        if not shapes:
+            continue
+        common = {"centers": [sh["pos"] for sh in shapes], "quaternions": [_xyzw(sh["quat"]) for sh in shapes],
+                  "colors": [sh["rgba"] for sh in shapes], "fill_mode": "solid"}
+        if kind == "box":
+            rec.log(f"{entity}/boxes", rr.Boxes3D(half_sizes=[sh["size"] for sh in shapes], **common), static=True)
+        else:
+            rec.log(f"{entity}/cylinders", rr.Cylinders3D(radii=[sh["size"][0] for sh in shapes],
+                                                          lengths=[2.0 * sh["size"][1] for sh in shapes], **common),
+                    static=True)
+    if part.get("arrows"):
+        rec.log(f"{entity}/momentum", rr.Arrows3D(vectors=[np.asarray(a["vector"], float) * scale for a in part["arrows"]],
+                                                  labels=[a.get("label", "") for a in part["arrows"]], show_labels=False,
+                                                  colors=[[250, 150, 60]] * len(part["arrows"])), static=True)
+
+
+def _extent(space: dict) -> float:
+    """The largest distance from the origin of a momentum view's surfaces (its size)."""
+    return max((float(np.max(np.linalg.norm(np.asarray(s["points"], float), axis=1)))
+                for s in space["surfaces"] if len(s["points"])), default=1.0)
+
+
+def measure_colors(values: np.ndarray, value_range) -> np.ndarray:
+    """RGB (N, 3) for values over [low, high]: red at low, yellow half way, green at high."""
+    low, high = value_range
+    f = np.clip((np.asarray(values, float) - low) / (high - low), 0.0, 1.0)
+    f = np.nan_to_num(f, nan=0.0)
+    return np.column_stack([255 * np.minimum(1.0, 2.0 * (1.0 - f)), 255 * np.minimum(1.0, 2.0 * f),
+                            np.full_like(f, 40.0)]).astype(np.uint8)
 
 
 def _summary_markdown(result: dict) -> str:

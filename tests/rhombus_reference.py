@@ -27,3 +27,10 @@ def rhombus_jacobian(beta: np.ndarray, alpha: float) -> np.ndarray:
     e, sz = rhombus_axes(alpha)
     beta = np.asarray(beta, dtype=float)[:, None]
     return (-np.sin(beta) * e + np.cos(beta) * sz).T
+
+
+def rhombus_column_derivative(beta: np.ndarray, alpha: float) -> np.ndarray:
+    """dJ_i/dbeta_i (3x4) of eq. (18): column i = -cos b_i e_i - sin b_i s_i z (minus the spin axis)."""
+    e, sz = rhombus_axes(alpha)
+    beta = np.asarray(beta, dtype=float)[:, None]
+    return -(np.cos(beta) * e + np.sin(beta) * sz).T

@@ -118,10 +118,38 @@ PINNED = {
         "momentum_drift_rel": {"max": 1e-9},
         "peak_gimbal_rate_deg_s": {"max": 5.5},
     },
+    "reorient_gimbal_limits": {
+        "rate_limit_violations": {"max": 0},
+        "gimbal_acceleration_violations": {"max": 0},
+        "gimbal_angle_limit_violations": {"max": 0},
+        "peak_gimbal_acceleration_deg_s2": {"max": 200.000001},
+        "min_gimbal_angle_margin_deg": {"min": -0.001},
+        "final_attitude_error_deg": {"max": 0.01},
+        "min_singularity_measure": {"min": 0.05},
+        "torque_error_rel": {"max": 0.05},
+    },
+    "reorient_minimax_avoid": {
+        "final_attitude_error_deg": {"max": 0.01},
+        "max_tracking_error_deg": {"max": 0.05},
+        "rate_limit_violations": {"max": 0},
+        "min_scale": {"min": 1},
+        "min_singularity_measure": {"min": 1.0},
+        "torque_error_rel": {"max": 1e-9},
+        "momentum_drift_rel": {"max": 1e-9},
+        "peak_gimbal_rate_deg_s": {"max": 5.033},   # 1.02 x reorient_minimax's 4.935
+    },
     "reorient_near_singular": {
         "rate_limit_violations": {"max": 0},
         "final_attitude_error_deg": {"max": 0.05},
         "min_singularity_measure": {"max": 0.05},
+    },
+    "reorient_near_singular_avoid": {
+        "min_singularity_measure": {"min": 0.05},
+        "torque_error_rel": {"max": 1e-3},
+        "final_attitude_error_deg": {"max": 0.01},
+        "peak_gimbal_rate_deg_s": {"max": 32.8},    # 1.1 x minimax_lp's 29.81 on this slew
+        "rate_limit_violations": {"max": 0},
+        "min_scale": {"min": 1},
     },
     "reorient_pinv": {
         "final_attitude_error_deg": {"max": 0.01},

@@ -60,6 +60,35 @@ def rate_limit_violations(run) -> float:
     return float(run.statistics["allocator"]["rate_limit_violations"])
 
 
+@metric("peak_gimbal_acceleration_deg_s2", applies=_steered)
+def peak_gimbal_acceleration_deg_s2(run) -> float:
+    """max over every control step and gimbal of |b'_k - b'_(k-1)| / Tc, the commanded acceleration
+    (the gimbals start at rest) [deg/s^2]; the servos' own transient within a period is faster."""
+    return float(np.degrees(run.statistics["allocator"]["peak_gimbal_acceleration"]))
+
+
+@metric("gimbal_acceleration_violations", applies=_steered)
+def gimbal_acceleration_violations(run) -> float:
+    """Count of commanded |b'_k - b'_(k-1)| > a_max Tc over every control step and gimbal (0 without a limit; must be 0)."""
+    return float(run.statistics["allocator"]["acceleration_violations"])
+
+
+@metric("gimbal_angle_limit_violations", applies=_steered)
+def gimbal_angle_limit_violations(run) -> float:
+    """Count of commanded gimbal angles (the servos' set-points) outside their [min, max] over every control step and gimbal (0 without limits; must be 0)."""
+    return float(run.statistics["allocator"]["angle_limit_violations"])
+
+
+def _angle_limited(scenario) -> bool:
+    return _steered(scenario) and scenario.stages["allocator"][1].gimbal_angle_limits_deg is not None
+
+
+@metric("min_gimbal_angle_margin_deg", applies=_angle_limited)
+def min_gimbal_angle_margin_deg(run) -> float:
+    """min over every control step and limited gimbal of the measured angle's distance to its nearer stop [deg] (< 0: beyond)."""
+    return float(np.degrees(run.statistics["allocator"]["min_angle_margin"]))
+
+
 @metric("min_singularity_measure", applies=_steered)
 def min_singularity_measure(run) -> float:
     """min over every control step of m = sqrt(det(J J^T)) of the unit Jacobian (0: singular; 1.54 at most)."""

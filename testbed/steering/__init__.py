@@ -14,6 +14,11 @@ deliver the least-squares projection of H' onto range(J); SR/GSR damp instead.
     gsr         Wie's generalized SR inverse (dithered)        sr_inverse.py
     minimax_lp  min-max, eq. (21)-(28), scipy HiGHS LP         minimax_lp.py
     minimax     min-max, exact closed form (~us)               minimax_exact.py
+    minimax_avoid  min-max under a barrier on sqrt(det(J J^T))  minimax_avoid.py
+
+Some keyword arguments are not options a user sets but what the caller knows at each step
+(STEP_INPUTS): `t` the time (gsr), `column_derivative` dJ_i/dbeta_i (minimax_avoid) and
+`rate_bounds` per-gimbal bounds on beta'_i from angle and acceleration limits (gimbal_limits.py).
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ from __future__ import annotations
 import inspect
 
 from testbed.errors import InputError
+from testbed.steering.minimax_avoid import minimax_avoid_steering
 from testbed.steering.minimax_exact import minimax_steering
 from testbed.steering.minimax_lp import minimax_lp_steering
 from testbed.steering.pseudo_inverse import pinv_steering
@@ -33,7 +39,11 @@ STEERING_LAWS = {
     "gsr": gsr_steering,
     "minimax_lp": minimax_lp_steering,
     "minimax": minimax_steering,
+    "minimax_avoid": minimax_avoid_steering,
 }
+
+# Keyword arguments a caller supplies at each step (see the module doc), not user options.
+STEP_INPUTS = frozenset({"t", "column_derivative", "rate_bounds"})
 
 # Keyword options each law accepts, read from its signature.
 LAW_OPTIONS = {name: tuple(p.name for p in inspect.signature(law).parameters.values()
@@ -61,6 +71,6 @@ def steer(name: str, J, h, Hdot, beta_rate_max, **options) -> SteeringResult:
     return law(J, h, Hdot, beta_rate_max, **options)
 
 
-__all__ = ["STEERING_LAWS", "LAW_OPTIONS", "SteeringResult", "steer", "steering_law",
+__all__ = ["STEERING_LAWS", "LAW_OPTIONS", "STEP_INPUTS", "SteeringResult", "steer", "steering_law",
            "pinv_steering", "sr_steering", "gsr_steering", "minimax_lp_steering",
-           "minimax_steering"]
+           "minimax_steering", "minimax_avoid_steering"]

@@ -34,9 +34,9 @@ import numpy as np
 
 from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
 from testbed.steering.minimax_lp import nullspace_lp_rates
-from testbed.steering.result import SteeringResult, status_string
+from testbed.steering.result import SteeringResult, limited_result, status_string
 from testbed.math.validation import number_in
-from testbed.steering.validation import checked_problem
+from testbed.steering.validation import checked_problem, checked_rate_bounds
 
 # Below |n| = NEAR_SINGULAR * |J|_F^3 the cofactor formulas lose > ~1e-12 relative accuracy.
 NEAR_SINGULAR = 1e-4
@@ -46,7 +46,13 @@ _PAIRS = ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))
 
 
 def minimize_max_abs_on_line(x, n) -> list[float]:
-    """argmin over beta = x + t n of max_i |beta_i| (4 floats each, n != 0), in closed form.
+    """argmin over beta = x + t n of max_i |beta_i| (4 floats each, n != 0), in closed form."""
+    t = minimax_line_parameter(x, n)
+    return [x[0] + t * n[0], x[1] + t * n[1], x[2] + t * n[2], x[3] + t * n[3]]
+
+
+def minimax_line_parameter(x, n) -> float:
+    """The t minimising max_i |x_i + t n_i| (4 floats each, n != 0), in closed form.
 
     v_ji = -v_ij and t_ij = t_ji, so the 12 ordered crossings reduce to the 6 pairs' |v_ij|.
     """
@@ -62,8 +68,7 @@ def minimize_max_abs_on_line(x, n) -> list[float]:
             v = abs(wj * a[i] - wi * a[j]) / den
             if v > best_v:
                 best_v, best_t = v, -(a[i] + a[j]) / den
-    t = best_t
-    return [x[0] + t * n[0], x[1] + t * n[1], x[2] + t * n[2], x[3] + t * n[3]]
+    return best_t
 
 
 def cofactor_null_vector(rows) -> list[float]:
@@ -95,11 +100,13 @@ def particular_solution(rows, b, n) -> list[float]:
     return x
 
 
-def minimax_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND) -> SteeringResult:
+def minimax_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND, rate_bounds=None) -> SteeringResult:
     """Min-max gimbal rates (eq. 21 subject to 17), exactly and in microseconds, rate-limited.
 
     Same optimum as minimax_lp_steering (tested to 1e-9 relative); the rate limit scales the
     demand by k = beta_rate_max / min-max value, exact since the optimum is linear in H'.
+    rate_bounds: optional per-gimbal (lo, hi), applied to the min-max rates like every law's
+    (rate_limit.apply_rate_bounds; minimax_avoid uses the null space to meet them instead).
     """
     rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
     if rcond != DEFAULT_RCOND:  # skip the check on the hot path's default
@@ -123,6 +130,10 @@ def minimax_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND)
             lp = nullspace_lp_rates(p, svd.null_space)
             lp_failed = lp is None
             beta = (p if lp_failed else lp).tolist()
+    if rate_bounds is not None:
+        bounds = checked_rate_bounds(rate_bounds, beta_rate_max)
+        return limited_result(np.array(rows), h, np.array(beta), beta_rate_max, measure, rank, lp_failed,
+                              bounds=bounds)
     # Rate limit (eq. 4): the min-max optimum scales linearly with the demand.
     peak = max(abs(beta[0]), abs(beta[1]), abs(beta[2]), abs(beta[3]))
     scale = 1.0

@@ -36,11 +36,11 @@ from testbed.steering.least_squares import (DEFAULT_RCOND, jacobian_svd, min_nor
                                             project_onto_range)
 from testbed.steering.result import SteeringResult, limited_result
 from testbed.math.validation import number_in
-from testbed.steering.validation import checked_problem
+from testbed.steering.validation import checked_problem, checked_rate_bounds
 
 LP_FORMS = ("epigraph", "paper")
 # Tight HiGHS tolerances: the answer is a simplex vertex, exact up to rounding once optimal.
-_HIGHS_OPTIONS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
+HIGHS_OPTIONS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
 
 
 def epigraph_lp_rates(J: np.ndarray, b: np.ndarray) -> np.ndarray | None:
@@ -53,7 +53,7 @@ def epigraph_lp_rates(J: np.ndarray, b: np.ndarray) -> np.ndarray | None:
     a_eq = np.hstack([J, np.zeros((3, 1))])
     bounds = [(None, None)] * 4 + [(0, None)]
     res = linprog(np.r_[0, 0, 0, 0, 1.0], A_ub=a_ub, b_ub=np.zeros(8), A_eq=a_eq, b_eq=b,
-                  bounds=bounds, method="highs", options=_HIGHS_OPTIONS)
+                  bounds=bounds, method="highs", options=HIGHS_OPTIONS)
     return res.x[:4] if res.status == 0 else None
 
 
@@ -72,7 +72,7 @@ def paper_lp_rates(J: np.ndarray, b: np.ndarray) -> np.ndarray | None:
     a_ub = np.column_stack([np.r_[1.0, -1.0, c1, -c1], -np.ones(8)])
     b_ub = np.r_[0.0, 0.0, -c0, c0]
     res = linprog([0.0, 1.0], A_ub=a_ub, b_ub=b_ub, bounds=[(None, None), (0, None)],
-                  method="highs", options=_HIGHS_OPTIONS)
+                  method="highs", options=HIGHS_OPTIONS)
     if res.status != 0:
         return None
     z1 = res.x[0]
@@ -94,22 +94,24 @@ def nullspace_lp_rates(p: np.ndarray, null_rows: np.ndarray) -> np.ndarray | Non
     N = null_rows.T  # (4, d)
     a_ub = np.block([[N, -np.ones((4, 1))], [-N, -np.ones((4, 1))]])  # +-(p + N z) <= s
     res = linprog(np.r_[np.zeros(d), 1.0], A_ub=a_ub, b_ub=np.r_[-p, p],
-                  bounds=[(None, None)] * d + [(0, None)], method="highs", options=_HIGHS_OPTIONS)
+                  bounds=[(None, None)] * d + [(0, None)], method="highs", options=HIGHS_OPTIONS)
     return p + N @ res.x[:d] if res.status == 0 else None
 
 
 def minimax_lp_steering(J, h, Hdot, beta_rate_max, *, form: str = "paper",
-                        rcond: float = DEFAULT_RCOND) -> SteeringResult:
+                        rcond: float = DEFAULT_RCOND, rate_bounds=None) -> SteeringResult:
     """Min-max gimbal rates (eq. 21) from scipy's HiGHS LP, rate-limited (eq. 4, 28).
 
     Rank J < 3 (SVD, tolerance rcond): minimises max|beta'_i| among the least-squares
     solutions, i.e. for the projection of H' onto range(J) (nullspace_lp_rates). If HiGHS reports no optimum
     (not seen in tests) the minimum-norm rates are used and the status says lp_failed.
+    rate_bounds: optional per-gimbal (lo, hi) (rate_limit.apply_rate_bounds).
     """
     rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
     if form not in LP_FORMS:
         raise InputError("steering.form", f"must be one of {', '.join(LP_FORMS)}")
     rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
+    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max)
     J = np.array(rows)
     b = np.array(hdot) / h
     svd = jacobian_svd(J, rcond)
@@ -122,4 +124,4 @@ def minimax_lp_steering(J, h, Hdot, beta_rate_max, *, form: str = "paper",
     failed = beta_rate is None
     if failed:
         beta_rate = min_norm_solution(svd, b)
-    return limited_result(J, h, beta_rate, beta_rate_max, svd.measure, svd.rank, failed)
+    return limited_result(J, h, beta_rate, beta_rate_max, svd.measure, svd.rank, failed, bounds=bounds)

@@ -12,19 +12,21 @@ import numpy as np
 from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
 from testbed.steering.result import SteeringResult, limited_result
 from testbed.math.validation import number_in
-from testbed.steering.validation import checked_problem
+from testbed.steering.validation import checked_problem, checked_rate_bounds
 
 
-def pinv_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND) -> SteeringResult:
+def pinv_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND, rate_bounds=None) -> SteeringResult:
     """Minimum-norm gimbal rates for h J beta' = H' (eq. 17, 20), rate-limited (eq. 4).
 
     Rank < 3 (singular values <= rcond * sigma_max): the least-squares projection of H'
-    onto range(J) is delivered instead, still with the minimum-norm rates.
+    onto range(J) is delivered instead, still with the minimum-norm rates. rate_bounds:
+    optional per-gimbal (lo, hi) (rate_limit.apply_rate_bounds).
     """
     rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
     rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
+    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max)
     J = np.array(rows)
     svd = jacobian_svd(J, rcond)
     beta_rate = min_norm_solution(svd, np.array(hdot) / h)
-    return limited_result(J, h, beta_rate, beta_rate_max, svd.measure, svd.rank)
+    return limited_result(J, h, beta_rate, beta_rate_max, svd.measure, svd.rank, bounds=bounds)
 

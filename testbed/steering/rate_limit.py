@@ -25,3 +25,26 @@ def apply_rate_limit(beta_rate: np.ndarray, beta_rate_max: float) -> tuple[np.nd
     if k == 1.0:
         return beta_rate, 1.0
     return np.clip(beta_rate * k, -beta_rate_max, beta_rate_max), k
+
+
+def apply_rate_bounds(beta_rate: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, float]:
+    """(p + k (beta_rate - p), k): per-gimbal bounds lo <= beta' <= hi (4,) instead of +-beta_rate_max.
+
+    p is the point of the box nearest zero and k the largest factor in [0, 1] that stays in the
+    box. When the box holds zero (no acceleration limit forces a gimbal to keep turning) p = 0
+    and this is the demand scaling above: k beta_rate delivers k H' exactly. Otherwise
+    (gimbal_limits.py: a gimbal that must brake) the command goes from the slowest allowed
+    rates p towards the law's answer as far as the box allows; its torque is then not k H'.
+    """
+    p = np.clip(0.0, lo, hi)
+    step = beta_rate - p
+    k = 1.0
+    for rate, start, low, high in zip(beta_rate, p, lo, hi):
+        if rate > high:
+            k = min(k, (high - start) / (rate - start))
+        elif rate < low:
+            k = min(k, (low - start) / (rate - start))
+    if k == 1.0:
+        return beta_rate, 1.0
+    k += 0.0  # -0.0 (an end of the box at p itself) reads as 0
+    return np.clip(p + k * step, lo, hi), k

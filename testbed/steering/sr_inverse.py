@@ -25,7 +25,7 @@ from testbed.errors import InputError
 from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
 from testbed.steering.result import SteeringResult, limited_result
 from testbed.math.validation import number_in, positive_number
-from testbed.steering.validation import checked_problem
+from testbed.steering.validation import checked_problem, checked_rate_bounds
 
 
 def nakamura_damping(m: float, lambda0: float, m0: float) -> float:
@@ -53,32 +53,36 @@ def damped_rates(J: np.ndarray, b: np.ndarray, damping: float, E: np.ndarray) ->
 
 
 def sr_steering(J, h, Hdot, beta_rate_max, *, lambda0: float = 0.01, m0: float = 0.2,
-                rcond: float = DEFAULT_RCOND) -> SteeringResult:
+                rcond: float = DEFAULT_RCOND, rate_bounds=None) -> SteeringResult:
     """Nakamura-Hanafusa SR-inverse rates, rate-limited (eq. 4).
 
     Where the damping is zero (m >= m0, or lambda0 = 0) this is exactly pinv_steering,
-    including its least-squares treatment of a rank-deficient J.
+    including its least-squares treatment of a rank-deficient J. rate_bounds: optional
+    per-gimbal (lo, hi) (rate_limit.apply_rate_bounds).
     """
     rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
     lambda0 = number_in("steering.lambda0", lambda0, 0.0, math.inf)
     m0 = positive_number("steering.m0", m0, allow_inf=False)
     rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
+    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max)
     J = np.array(rows)
     b = np.array(hdot) / h
     svd = jacobian_svd(J, rcond)
     damping = nakamura_damping(svd.measure, lambda0, m0)
     # Undamped: the SVD pseudo-inverse, which also copes with rank < 3 when lambda0 = 0.
     beta_rate = damped_rates(J, b, damping, np.eye(3)) if damping > 0 else min_norm_solution(svd, b)
-    return limited_result(J, h, beta_rate, beta_rate_max, svd.measure, svd.rank)
+    return limited_result(J, h, beta_rate, beta_rate_max, svd.measure, svd.rank, bounds=bounds)
 
 
 def gsr_steering(J, h, Hdot, beta_rate_max, *, t: float = 0.0, lambda0: float = 0.01,
                  mu: float = 10.0, epsilon0: float = 0.01, omega: float = math.pi / 2,
-                 phases=(0.0, math.pi / 2, math.pi), rcond: float = DEFAULT_RCOND) -> SteeringResult:
+                 phases=(0.0, math.pi / 2, math.pi), rcond: float = DEFAULT_RCOND,
+                 rate_bounds=None) -> SteeringResult:
     """Wie's generalized SR-inverse rates at time t [s], rate-limited (eq. 4).
 
     The damping is never zero, so J J^T + lambda E is invertible even at rank J < 3: no
     projection is made, the SR error absorbs the singularity (rcond only sets the reported rank).
+    rate_bounds: optional per-gimbal (lo, hi) (rate_limit.apply_rate_bounds).
     """
     rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
     t = number_in("steering.t", t, -math.inf, math.inf, low_open=True, high_open=True)
@@ -93,9 +97,10 @@ def gsr_steering(J, h, Hdot, beta_rate_max, *, t: float = 0.0, lambda0: float = 
         phases = ()
     if len(phases) != 3 or not all(map(math.isfinite, phases)):
         raise InputError("steering.phases", "must be 3 finite angles [rad]")
+    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max)
     J = np.array(rows)
     svd = jacobian_svd(J, rcond)
     E = wie_dither_matrix(t, epsilon0, omega, phases)
     damping = wie_damping(svd.measure ** 2, lambda0, mu)
     beta_rate = damped_rates(J, np.array(hdot) / h, damping, E)
-    return limited_result(J, h, beta_rate, beta_rate_max, svd.measure, svd.rank)
+    return limited_result(J, h, beta_rate, beta_rate_max, svd.measure, svd.rank, bounds=bounds)

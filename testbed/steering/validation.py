@@ -41,3 +41,21 @@ def _float_rows(J) -> list[list[float]] | None:
     except (TypeError, ValueError):
         return None
     return rows if len(rows) == 3 and all(len(r) == 4 for r in rows) else None
+
+
+def checked_rate_bounds(rate_bounds, beta_rate_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi), each (4,): per-gimbal rate bounds intersected with +-beta_rate_max; None means
+    +-beta_rate_max alone. Refuses anything but two rows of 4 numbers with lo <= hi (InputError)."""
+    limit = np.full(4, beta_rate_max)
+    if rate_bounds is None:
+        return -limit, limit
+    try:
+        bounds = np.asarray(rate_bounds, dtype=float)
+    except (TypeError, ValueError):
+        bounds = np.empty(0)
+    if bounds.shape != (2, 4) or np.any(np.isnan(bounds)) or np.any(bounds[0] > bounds[1]):
+        raise InputError("steering.rate_bounds", "must be (lo, hi), 4 numbers each, with lo <= hi")
+    lo, hi = np.maximum(bounds[0], -limit), np.minimum(bounds[1], limit)
+    if np.any(lo > hi):
+        raise InputError("steering.rate_bounds", "a gimbal's bounds lie outside +-beta_rate_max")
+    return lo, hi

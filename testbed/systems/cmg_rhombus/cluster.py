@@ -89,16 +89,24 @@ class ClusterGeometry:
         return (h[..., None, :] @ self.spin_axes(beta))[..., 0, :]
 
     def unit_jacobian(self, beta):
-        """dH/dbeta per unit rotor momentum, (3, 4): column i = -sin b_i e_i + cos b_i s_i z
-        (SEEDS §004 eq. (18) divided by h). Steering solves h J(b) b' = H' (eq. (17))."""
-        beta = np.asarray(beta, dtype=float)[:, None]
-        return (-np.sin(beta) * self.spin_axes_zero + np.cos(beta) * self.turn_axes).T
+        """dH/dbeta per unit rotor momentum, (..., 3, 4): column i = -sin b_i e_i + cos b_i s_i z
+        (SEEDS §004 eq. (18) divided by h). Steering solves h J(b) b' = H' (eq. (17)). Leading
+        dimensions of beta (a recorded history) broadcast."""
+        beta = np.asarray(beta, dtype=float)[..., None]
+        return np.swapaxes(-np.sin(beta) * self.spin_axes_zero + np.cos(beta) * self.turn_axes, -1, -2)
+
+    def unit_jacobian_derivative(self, beta):
+        """dJ_i/dbeta_i of the unit Jacobian, (3, 4): column i = -(cos b_i e_i + sin b_i s_i z),
+        the negative unit spin axis (eq. (18) differentiated; column i of J depends on b_i only)."""
+        return -self.spin_axes(beta).T
 
     def jacobian(self, beta):
         """dH/dbeta at the nominal rotor momenta [N m s / rad], (3, 4): h_i times unit column."""
         return self.unit_jacobian(beta) * self.rotor_momentum
 
     def singularity_measure(self, beta):
-        """sqrt(det(J J^T)) of the unit Jacobian: 0 at a singular set, up to (4/3)^(3/2)."""
+        """sqrt(det(J J^T)) of the unit Jacobian: 0 at a singular set, up to (4/3)^(3/2). A float
+        for one set of angles (4,), an array for a history (..., 4)."""
         j = self.unit_jacobian(beta)
-        return float(np.sqrt(max(np.linalg.det(j @ j.T), 0.0)))
+        measure = np.sqrt(np.maximum(np.linalg.det(j @ np.swapaxes(j, -1, -2)), 0.0))
+        return float(measure) if measure.ndim == 0 else measure

@@ -105,6 +105,20 @@ def singular_surface_points(alpha, n, h=1.0, axes=None) -> dict[tuple[int, ...],
     return surfaces
 
 
+def surface_name(pattern) -> str:
+    """"external" for the envelope, "internal/<p|m per sign>" for an internal singular surface."""
+    if tuple(pattern) == EXTERNAL:
+        return "external"
+    return "internal/" + "".join("p" if s > 0 else "m" for s in pattern)
+
+
+def surface_color(pattern) -> tuple[int, int, int, int]:
+    """RGBA of a surface: blue envelope; internal surfaces orange (odd number of -1) or magenta (even)."""
+    if tuple(pattern) == EXTERNAL:
+        return (70, 130, 230, 255)
+    return (230, 120, 40, 255) if sum(1 for s in pattern if s < 0) % 2 else (200, 40, 160, 255)
+
+
 def write_envelope_rrd(path, alpha, h, n, axes=None) -> Path:
     """Write the envelope and internal singular surfaces as rr.Points3D (+ gimbal axes) to a .rrd file.
 
@@ -118,14 +132,8 @@ def write_envelope_rrd(path, alpha, h, n, axes=None) -> Path:
     with recording_to(path, "testbed-envelope") as rec:
         radius = 0.01 * h
         for pattern, points in surfaces.items():
-            if pattern == EXTERNAL:
-                entity, color = "envelope/external", (70, 130, 230, 255)
-            else:
-                name = "".join("p" if s > 0 else "m" for s in pattern)
-                negatives = sum(1 for s in pattern if s < 0)
-                entity = f"envelope/internal/{name}"
-                color = (230, 120, 40, 255) if negatives % 2 else (200, 40, 160, 255)
-            rec.log(entity, rr.Points3D(points, colors=[color], radii=radius), static=True)
+            rec.log(f"envelope/{surface_name(pattern)}", rr.Points3D(points, colors=[surface_color(pattern)],
+                                                                     radii=radius), static=True)
         rec.log(
             "envelope/gimbal_axes",
             rr.Arrows3D(vectors=2.0 * h * g, labels=[f"g{i + 1}" for i in range(len(g))]),

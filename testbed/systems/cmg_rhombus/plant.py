@@ -11,9 +11,13 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.free_bus import FreeBus
 from testbed.plant import Plant
+from testbed.scene import moving_parts
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTORS, ClusterGeometry
 from testbed.systems.cmg_rhombus.gimbal_servo import FeedForwardServo, IntVelocityServo
 from testbed.systems.cmg_rhombus.model import GIMBAL_MOTORS, GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS
+from testbed.systems.cmg_rhombus.momentum_envelope import singular_surface_points, surface_color, surface_name
+
+ENVELOPE_DIRECTIONS = 1500  # directions per surface in the trace's momentum view (testbed envelope: 4000)
 
 
 def evenly_spaced(addresses) -> slice:
@@ -147,10 +151,12 @@ class CmgPlant(Plant):
         return signals
 
     def derived_signals(self, recorder) -> dict[str, np.ndarray]:
-        """Cluster spin momentum H(beta, Omega), body axes, from the recorded gimbal and rotor
-        histories (SEEDS §004 eq. 15), computed after the run in one vectorised pass."""
-        return {"truth/cmg_momentum": self.geometry.momentum(recorder["truth/gimbal_angle"],
-                                                            recorder["truth/rotor_rate"])}
+        """Cluster spin momentum H(beta, Omega), body axes (SEEDS §004 eq. 15), and the singularity
+        measure sqrt(det(J J^T)) of the true gimbal angles, from the recorded histories, computed
+        after the run in one vectorised pass."""
+        beta = recorder["truth/gimbal_angle"]
+        return {"truth/cmg_momentum": self.geometry.momentum(beta, recorder["truth/rotor_rate"]),
+                "truth/singularity_measure": self.geometry.singularity_measure(beta)[:, None]}
 
     def actuator_state(self) -> dict[str, np.ndarray]:
         """What the gimbal encoders and rotor tachometers report."""
@@ -174,6 +180,29 @@ class CmgPlant(Plant):
         return self.geometry
 
     def scene(self) -> dict:
-        """The base scene plus the cluster momentum H drawn on the bus."""
-        return super().scene() | {"body_momenta": {"truth/cmg_momentum": "cmg_momentum"},
-                                  "units": {"cmg_momentum": "N m s"}}
+        """The base scene plus the cluster: the gimbal frames and rotors from the compiled model's
+        geoms, turning with the recorded gimbal angles, each rotor's momentum h_i along its spin
+        axis and the total H on the bus; and the momentum view: the envelope and the 7 internal
+        singular surfaces (momentum_envelope.py, gimbal axes and h from the model) with the run's
+        H(t) coloured by sqrt(det(J J^T)) (its largest value for 4 unit columns is (4/3)^(3/2))."""
+        model = self.model
+        parts = moving_parts(model, self.bus.bus_body_id,
+                             {name: ("truth/gimbal_angle", i) for i, name in enumerate(GIMBALS)})
+        rotors = {f"{gimbal}/{rotor}": i for i, (gimbal, rotor) in enumerate(zip(GIMBALS, ROTORS))}
+        for part in parts:
+            i = rotors.get(part["entity"])
+            if i is not None:
+                axis = model.jnt_axis[model.joint(ROTORS[i]).id]  # the spin axis, rotor frame
+                part["arrows"] = [{"vector": (self.geometry.rotor_momentum[i] * axis).tolist(), "label": f"h{i + 1}"}]
+        g = self.geometry
+        surfaces = singular_surface_points(g.alpha, ENVELOPE_DIRECTIONS, g.h, g.gimbal_axes)
+        return super().scene() | {
+            "body_momenta": {"truth/cmg_momentum": "cmg_momentum"},
+            "units": {"cmg_momentum": "N m s", "singularity_measure": ""},
+            "moving_parts": parts,
+            "momentum_space": {
+                "title": "cluster momentum H [N m s]: envelope, singular surfaces, H(t)",
+                "surfaces": [{"name": surface_name(p), "points": points, "color": surface_color(p)}
+                             for p, points in surfaces.items()],
+                "path": "truth/cmg_momentum", "measure": "truth/singularity_measure",
+                "measure_range": [0.0, (N_CMG / 3.0) ** 1.5]}}

@@ -1,0 +1,177 @@
+"""Singularity-avoiding min-max steering: min-max rates with a barrier on sqrt(det(J J^T)).
+
+The min-max law (SEEDS §004 eq. (21)-(28), minimax_exact.py) spends the one free direction of
+a rank-3, 3x4 J on the lowest peak rate and nothing else; on reorient_near_singular it steers
+into a singular set. This law keeps that optimum and adds one linear constraint that keeps the
+singularity measure m = sqrt(det(J J^T)) away from zero. With b = H'/h (eq. 17):
+
+1. Solutions. Thin SVD J = U diag(s_1, s_2, s_3) V^T (s_1 >= s_2 >= s_3 > 0) and v_4 the unit
+   null vector: every solution of J beta' = b is
+
+       beta'(t) = x + t v_4,   x = V diag(1/s) U^T b  (minimum norm, eq. 20),  t real.      (1)
+
+2. Bounds. lo <= beta'(t) <= hi, with [lo_i, hi_i] = [-beta'max, beta'max] intersected with the
+   caller's per-gimbal `rate_bounds` (angle and acceleration limits, gimbal_limits.py), is an
+   interval of t:  T = [max_i t_i^-, min_i t_i^+],  t_i^-+ = the ends of
+   (lo_i - x_i)/v_4i .. (hi_i - x_i)/v_4i (for v_4i = 0: all t if lo_i <= x_i <= hi_i, else none).
+
+3. Barrier. m = s_1 s_2 s_3, and the singular values move as ds_k = u_k^T dJ v_k. Column i of J
+   depends on beta_i alone (a single-gimbal CMG), so with d_i = dJ_i/dbeta_i (`column_derivative`,
+   the negative spin axis of CMG i):
+
+       dm/dbeta_i = g_i = sum_k (m / s_k) (u_k . d_i) V_ik,   dm/dt = g . beta'.               (2)
+
+   (m / s_k is the product of the other two singular values, so (2) stays finite as s_3 -> 0.)
+   The barrier asks for
+
+       g . beta'(t) >= -gamma (m - m_floor)                                                    (3)
+
+   (`barrier_gain_per_s` = gamma, `measure_floor` = m_floor): while it holds, m - m_floor decays at
+   most like exp(-gamma t), so m does not cross m_floor; below it, (3) asks for a recovery at the
+   rate gamma (m_floor - m). Far from a singular set the right side is very negative and (3) is
+   inactive. In t, (3) is the half-line A = {t : (g . v_4) t >= -gamma (m - m_floor) - g . x}.
+
+4. The command. f(t) = max_i |x_i + t v_4i| is convex (a maximum of |affine|), so its minimum over
+   an interval is its unconstrained minimiser t* (closed form, minimax_exact) clipped into it:
+
+       T and A meet:          t = clip(t*, T n A)         min-max under the barrier, exact torque
+       T and A do not meet:   t = the end of T nearest A   the largest dm/dt the bounds allow,
+                                                           exact torque, status avoidance_limited
+       T empty:               no exact command within the bounds: the largest fraction k of the
+                              demand that has one, from the LP  max k  s.t.  lo <= k x + t v_4 <= hi,
+                              0 <= k <= 1  (scipy HiGHS; its t is then the min-max one at that k),
+                              status rate_limited, scale k. The direction of H' is kept. Only when
+                              not even k = 0 fits (an acceleration limit keeps a gimbal turning
+                              and v_4 cannot absorb it) are the min-max rates limited like every
+                              law's (rate_limit.apply_rate_bounds).
+
+   The avoidance itself never costs torque: it only moves along v_4. Far from singular sets
+   (A contains t*) the command is exactly the min-max one.
+
+Rank J < 3 (s_3 <= rcond s_1): the null space has dimension >= 2 and m is not differentiable
+there; the law then does what `minimax` does (least-squares projection, null-space LP) and
+says rank_deficient. What the barrier cannot do: it acts on the present configuration only. A
+rest-to-rest slew from the zero-momentum set ends at H = 0, and whether the gimbals arrive at a
+non-singular zero-momentum set or at a singular one (two pairs cancelling) is decided while |H|
+is still large and m still high; README "Steering study" gives how often that happens.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import linprog
+
+from testbed.errors import InputError
+from testbed.math.validation import number_in, positive_number
+from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
+from testbed.steering.minimax_exact import minimax_line_parameter
+from testbed.steering.minimax_lp import HIGHS_OPTIONS, nullspace_lp_rates
+from testbed.steering.result import SteeringResult, limited_result, status_string
+from testbed.steering.validation import checked_problem, checked_rate_bounds
+
+# Null-vector components below this fraction of the largest are exactly zero (as minimax_exact).
+ZERO_SLOPE = 1e-13
+
+
+def measure_gradient(svd, column_derivative: np.ndarray) -> np.ndarray:
+    """dm/dbeta (4,) of m = sqrt(det(J J^T)), eq. (2), from J's full-rank SVD and dJ_i/dbeta_i (3, 4)."""
+    others = svd.measure / svd.s  # m / s_k: product of the other two singular values
+    return np.einsum("k,ki,ki->i", others, svd.u.T @ column_derivative, svd.vt)
+
+
+def line_interval(x: np.ndarray, n: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[float, float]:
+    """[t_lo, t_hi] of the t with lo <= x + t n <= hi componentwise (t_lo > t_hi: none)."""
+    t_lo, t_hi = -math.inf, math.inf
+    floor = ZERO_SLOPE * float(np.max(np.abs(n)))
+    for xi, ni, a, b in zip(x, n, lo, hi):
+        if abs(ni) <= floor:
+            if not a <= xi <= b:
+                return math.inf, -math.inf
+            continue
+        p, q = (a - xi) / ni, (b - xi) / ni
+        t_lo, t_hi = max(t_lo, min(p, q)), min(t_hi, max(p, q))
+    return t_lo, t_hi
+
+
+def largest_exact_fraction(x: np.ndarray, n: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[float, float] | None:
+    """(k, t) with the largest k in [0, 1] such that lo <= k x + t n <= hi, t the min-max one at
+    that k; None when no k in [0, 1] has such a t (the LP in (k, t) of the module doc, step 4)."""
+    a_ub = np.vstack([np.column_stack([x, n]), -np.column_stack([x, n])])
+    res = linprog([-1.0, 0.0], A_ub=a_ub, b_ub=np.r_[hi, -lo], bounds=[(0.0, 1.0), (None, None)],
+                  method="highs", options=HIGHS_OPTIONS)
+    if res.status != 0:
+        return None
+    k = float(res.x[0]) + 0.0  # -0.0 reads as 0
+    t_lo, t_hi = line_interval(k * x, n, lo, hi)
+    t = float(res.x[1])
+    if t_lo <= t_hi:  # the LP's t is one feasible point; the interval is usually that point
+        t = min(max(minimax_line_parameter((k * x).tolist(), n.tolist()), t_lo), t_hi)
+    return k, t
+
+
+def barrier_choice(t_star: float, t_lo: float, t_hi: float, slope: float, offset: float) -> tuple[float, bool]:
+    """(t, met): t minimising the convex f with minimiser t_star over [t_lo, t_hi] subject to
+    slope t >= offset (eq. 3 in t); when no t of the interval meets it, the end that comes
+    closest (met = False). An all-but-zero slope leaves only the check of 0 >= offset."""
+    if slope > 0.0:
+        t_lo_a, t_hi_a = max(t_lo, offset / slope), t_hi
+    elif slope < 0.0:
+        t_lo_a, t_hi_a = t_lo, min(t_hi, offset / slope)
+    else:
+        return min(max(t_star, t_lo), t_hi), offset <= 0.0
+    if t_lo_a <= t_hi_a:
+        return min(max(t_star, t_lo_a), t_hi_a), True
+    return (t_hi if slope > 0.0 else t_lo), False
+
+
+def minimax_avoid_steering(J, h, Hdot, beta_rate_max, *, column_derivative=None, measure_floor: float = 0.6,
+                           barrier_gain_per_s: float = 0.5, rate_bounds=None,
+                           rcond: float = DEFAULT_RCOND) -> SteeringResult:
+    """Min-max gimbal rates under the singularity barrier (module doc, eq. 1-3), within the bounds.
+
+    column_derivative: (3, 4), column i = dJ_i/dbeta_i at the same gimbal angles as J (required).
+    rate_bounds: optional (lo, hi), each (4,) [rad/s], intersected with +-beta_rate_max.
+    """
+    rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
+    if column_derivative is None:
+        raise InputError("steering.column_derivative", "minimax_avoid needs dJ_i/dbeta_i (3x4) at the same "
+                         "gimbal angles as J")
+    try:
+        derivative = np.asarray(column_derivative, dtype=float)
+    except (TypeError, ValueError):
+        derivative = np.empty(0)
+    if derivative.shape != (3, 4) or not np.all(np.isfinite(derivative)):
+        raise InputError("steering.column_derivative", "must be a 3x4 matrix of finite numbers")
+    floor = number_in("steering.measure_floor", measure_floor, 0.0, math.inf, high_open=True)
+    gain = positive_number("steering.barrier_gain_per_s", barrier_gain_per_s)
+    rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
+    lo, hi = checked_rate_bounds(rate_bounds, beta_rate_max)
+    J = np.array(rows)
+    b = np.array(hdot) / h
+    svd = jacobian_svd(J, rcond)
+    if svd.rank < 3:  # least squares, as minimax: the min-max rates for the reachable part of b
+        p = min_norm_solution(svd, b)
+        lp = nullspace_lp_rates(p, svd.null_space)
+        return limited_result(J, h, p if lp is None else lp, beta_rate_max, svd.measure, svd.rank,
+                              lp is None, bounds=(lo, hi))
+    x, n = min_norm_solution(svd, b), svd.null_space[0]
+    t_star = minimax_line_parameter(x.tolist(), n.tolist())
+    t_lo, t_hi = line_interval(x, n, lo, hi)
+    if t_lo > t_hi:  # no exact-torque command within the bounds: the largest fraction of H' that has one
+        fraction = largest_exact_fraction(x, n, lo, hi)
+        if fraction is None:
+            return limited_result(J, h, x + t_star * n, beta_rate_max, svd.measure, svd.rank, bounds=(lo, hi))
+        k, t = fraction
+        beta_rate = np.clip(k * x + t * n, lo, hi)
+        return SteeringResult(beta_rate, h * (J @ beta_rate), k, svd.measure, svd.rank, status_string(True))
+    g = measure_gradient(svd, derivative)
+    offset = -gain * (svd.measure - floor) - float(g @ x)
+    slope = float(g @ n)
+    if abs(slope) <= ZERO_SLOPE * float(np.linalg.norm(g)):
+        slope = 0.0
+    t, met = barrier_choice(t_star, t_lo, t_hi, slope, offset)
+    beta_rate = np.clip(x + t * n, lo, hi)  # the clip only removes rounding at an end of T
+    return SteeringResult(beta_rate, h * (J @ beta_rate), 1.0, svd.measure, svd.rank,
+                          status_string(False, avoidance_limited=not met))
