@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 CHUNK_ROWS = 4096
+FLUSH_AFTER_S = 1.0  # [s] of wall time: the longest a written run holds samples back
 
 
 @dataclass

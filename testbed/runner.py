@@ -17,7 +17,7 @@ from testbed import metrics, references_registry, systems_registry, trace
 from testbed.errors import InputError
 from testbed.pipeline import Pipeline, StageContext, StageFailed, params_dict, stage_infos
 from testbed.plant import SimulationDiverged
-from testbed.recorder import Chunk, Recorder, Trace
+from testbed.recorder import FLUSH_AFTER_S, Chunk, Recorder, Trace
 from testbed.reductions import Reductions
 
 
@@ -128,7 +128,7 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     `keep_data` keeps the whole trace and what the metrics saw in the result (otherwise only the
     signals the metrics need are kept: memory does not grow with the run for metrics that are
     running reductions); `live`: further Rerun sinks (a viewer) the trace is streamed to as it
-    goes, flushed at least every second of wall time; `progress(fraction)` is called about 200
+    goes; the file and the sinks get a chunk at least every FLUSH_AFTER_S of wall time; `progress(fraction)` is called about 200
     times."""
     wall0 = time.perf_counter()
     out = trace.output_path(out) if out is not None else None  # refused before the run, not after
@@ -147,7 +147,9 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     with trace.recording_to(out, live=live) if out is not None or live else contextlib.nullcontext() as rec:
         writer = trace.TraceWriter(rec, scenario.name, n_ticks * sim.control_period_s, plant.scene()) if rec else None
         stream = _ChunkStream(plant, reference, reductions, writer)
-        recorder = Recorder(keep=keep, on_chunk=stream, flush_after_s=1.0 if live else None)
+        # a chunk at least every FLUSH_AFTER_S of wall time: a viewer sees the run move, and a killed
+        # slow run loses at most that much of its trace
+        recorder = Recorder(keep=keep, on_chunk=stream, flush_after_s=FLUSH_AFTER_S if rec else None)
         stream.recorder = recorder
         try:
             # a stage whose numbers overflow or turn invalid fails at that tick, named (StageFailed),

@@ -15,10 +15,12 @@ import numpy as np
 import pytest
 import yaml
 
-from testbed.recorder import CHUNK_ROWS
+from testbed.recorder import CHUNK_ROWS, FLUSH_AFTER_S
 
 ROOT = Path(__file__).resolve().parents[1]
-KILL_AT_S = 60.0
+KILL_AT_S = 30.0
+STALL_AT_S = 25.0
+STALL_S = 1.5 * FLUSH_AFTER_S  # [s] of wall time
 TRACE_PERIOD_S = 0.01
 
 
@@ -30,11 +32,12 @@ def _testbed(*args, cwd: Path, timeout: float = 300) -> subprocess.CompletedProc
 
 @pytest.fixture(scope="module")
 def killed_run(tmp_path_factory) -> tuple[Path, subprocess.CompletedProcess]:
-    """A tumbling satellite whose law SIGKILLs its own process at t = KILL_AT_S (of 120 s): the
-    kill comes at a known simulated time, after one chunk (CHUNK_ROWS samples) has been written."""
+    """A tumbling satellite whose law stalls STALL_S of wall time at t = STALL_AT_S and SIGKILLs
+    its own process at t = KILL_AT_S (of 120 s): fewer than CHUNK_ROWS samples are recorded
+    before the kill, so only the time-based flush (FLUSH_AFTER_S of wall time) writes them."""
     folder = tmp_path_factory.mktemp("killed")
     (folder / "kill_self.py").write_text(textwrap.dedent(f'''\
-        import os, signal
+        import os, signal, time
         import numpy as np
         import testbed
 
@@ -47,6 +50,8 @@ def killed_run(tmp_path_factory) -> tuple[Path, subprocess.CompletedProcess]:
                 pass
 
             def torque(self, t, estimate):
+                if abs(t - {STALL_AT_S}) < 1e-9:
+                    time.sleep({STALL_S})
                 if t >= {KILL_AT_S}:
                     os.kill(os.getpid(), signal.SIGKILL)
                 return {{"torque": np.zeros(3)}}
@@ -71,14 +76,15 @@ def test_a_run_killed_with_sigkill_leaves_a_readable_partial_trace(killed_run):
     shown = _testbed("inspect", partials[0], "--json", cwd=folder)
     assert shown.returncode == 0, shown.stderr
     info = json.loads(shown.stdout)
-    for entity in ("/truth/omega", "/truth/quat", "/law/torque", "/world/bus"):
-        assert info["entities"].get(entity, 0) >= CHUNK_ROWS, (entity, info["entities"])
-    # every whole chunk written before the kill is there, none after it: the samples up to the
-    # last flush (a multiple of CHUNK_ROWS samples) before t = KILL_AT_S
-    chunks = int(KILL_AT_S / TRACE_PERIOD_S) // CHUNK_ROWS
-    assert chunks >= 1
-    assert info["time_span_s"] == pytest.approx([0.0, (chunks * CHUNK_ROWS - 1) * TRACE_PERIOD_S], abs=1e-9)
-    assert info["entities"]["/truth/omega"] == chunks * CHUNK_ROWS + 1  # + the series' static row
+    # the samples up to the stall at least (the first sample after it is more than
+    # FLUSH_AFTER_S of wall time after the last flush), none from the kill on, without a gap
+    t_first, t_last = info["time_span_s"]
+    assert t_first == 0.0 and STALL_AT_S <= t_last < KILL_AT_S, info["time_span_s"]
+    rows = round(t_last / TRACE_PERIOD_S) + 1
+    assert rows < CHUNK_ROWS  # no chunk filled up: the time-based flush wrote them
+    for entity in ("/truth/omega", "/truth/quat", "/law/torque"):
+        assert info["entities"].get(entity) == rows + 1, (entity, info["entities"])  # + the series' static row
+    assert info["entities"].get("/world/bus", 0) >= rows
     result = info["result"]
     assert result["status"] == "error" and "did not finish" in result["error"]
 
@@ -95,11 +101,11 @@ def test_the_partial_trace_holds_the_true_samples(killed_run):
     t, omega = read_signals(partial)["truth/omega"]
     spec = yaml.safe_load((folder / "killed.yaml").read_text())
     spec["plugins"] = [str(folder / "kill_self.py")]
-    spec["sim"]["duration_s"] = 50.0  # before the kill
+    spec["sim"]["duration_s"] = KILL_AT_S - 1.0  # before the kill
     whole = testbed.run(spec)
     t_whole, omega_whole = whole.trace["truth/omega"]
     n = len(t)
-    assert n == CHUNK_ROWS and np.array_equal(omega, omega_whole[:n])
+    assert n > STALL_AT_S / TRACE_PERIOD_S and np.array_equal(omega, omega_whole[:n])
     assert np.allclose(t, t_whole[:n], atol=1e-9)
 
 
