@@ -145,7 +145,8 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     reductions = Reductions(metrics.reductions(scenario))
     status, error = "ok", None
     with trace.recording_to(out, live=live) if out is not None or live else contextlib.nullcontext() as rec:
-        writer = trace.TraceWriter(rec, scenario.name, n_ticks * sim.control_period_s, plant.scene()) if rec else None
+        writer = trace.TraceWriter(rec, scenario.name, n_ticks * sim.control_period_s, plant.scene(),
+                                   envelope_rows=sim.envelope_rows) if rec else None
         stream = _ChunkStream(plant, reference, reductions, writer)
         # a chunk at least every FLUSH_AFTER_S of wall time: a viewer sees the run move, and a killed
         # slow run loses at most that much of its trace

@@ -32,7 +32,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from testbed.errors import InputError, quoted
-from testbed.recorder import Trace
+from testbed.recorder import Chunk, Trace
 from testbed.scene import hinge_poses
 
 APP_ID = "gyrodyne-testbed"
@@ -131,10 +131,13 @@ class TraceWriter:
     the stored `run/result` says the run did not finish. `scene` may hold `bus_half_size` (3,)
     [m] and a `momentum_scale` [m per N m s] for the arrows, `body_momenta` {signal key: entity
     name} of body-frame momenta to draw on the bus, and `units` {signal name: unit} beside UNITS.
+    `envelope_rows` > 1: each signal is written as its envelope over blocks of that many samples
+    (`envelope`, entities `<key>/min` and `<key>/max`) and the 3D scene at each block's first
+    sample, so that a very long run gives a trace a viewer can open (README "Long runs").
     """
 
-    def __init__(self, rec, scenario_name: str, end_time: float, scene: dict | None = None):
-        self.rec, self.end_time, self.scene = rec, end_time, scene
+    def __init__(self, rec, scenario_name: str, end_time: float, scene: dict | None = None, envelope_rows: int = 1):
+        self.rec, self.end_time, self.scene, self.envelope_rows = rec, end_time, scene, envelope_rows
         self.units = UNITS | (scene or {}).get("units", {})
         self.keys: dict[str, None] = {}  # every signal written, in order
         self.path_end = None  # the momentum-space path's last point and colour, to join the next chunk's strip
@@ -149,15 +152,20 @@ class TraceWriter:
     def write(self, chunk) -> None:
         """Send one chunk's signals (and the 3D scene at its samples), then flush it out."""
         rec = self.rec
-        times = rr.TimeColumn(TIMELINE, duration=chunk.time)
         new = [key for key in chunk.signals if key not in self.keys]
-        for key, values in chunk.signals.items():
-            values = np.asarray(values, float).reshape(len(chunk.time), -1)
-            if key in new:
-                name = key.rsplit("/", 1)[-1]
-                rec.log(key, rr.SeriesLines(names=_series_names(name, values.shape[1], self.units)), static=True)
-            rec.send_columns(key, indexes=[times], columns=rr.Scalars.columns(scalars=values))
-        if self.scene is not None:
+        if self.envelope_rows > 1:
+            self._write_envelope(chunk, new)
+            chunk = block_starts(chunk, self.envelope_rows)
+            times = rr.TimeColumn(TIMELINE, duration=chunk.time)
+        else:
+            times = rr.TimeColumn(TIMELINE, duration=chunk.time)
+            for key, values in chunk.signals.items():
+                values = np.asarray(values, float).reshape(len(chunk.time), -1)
+                if key in new:
+                    name = key.rsplit("/", 1)[-1]
+                    rec.log(key, rr.SeriesLines(names=_series_names(name, values.shape[1], self.units)), static=True)
+                rec.send_columns(key, indexes=[times], columns=rr.Scalars.columns(scalars=values))
+        if self.scene is not None and len(chunk.time):
             _write_scene(rec, chunk, times, self.scene)
             if "momentum_space" in self.scene:
                 self._write_path(chunk, times, self.scene["momentum_space"])
@@ -167,6 +175,18 @@ class TraceWriter:
             path = chunk.signals.get(space["path"]) if space else None
             rec.send_blueprint(_blueprint(self.keys, self.end_time, self.scene, path))
         rec.flush()
+
+    def _write_envelope(self, chunk, new: list[str]) -> None:
+        """Each signal's envelope over the chunk's blocks as `<key>/min` and `<key>/max`."""
+        times, low, high = envelope(chunk, self.envelope_rows)
+        times = rr.TimeColumn(TIMELINE, duration=times)
+        for key in chunk.signals:
+            name = key.rsplit("/", 1)[-1]
+            for side, values in (("min", low[key]), ("max", high[key])):
+                if key in new:
+                    names = [f"{n} {side}" for n in _series_names(name, values.shape[1], self.units)]
+                    self.rec.log(f"{key}/{side}", rr.SeriesLines(names=names), static=True)
+                self.rec.send_columns(f"{key}/{side}", indexes=[times], columns=rr.Scalars.columns(scalars=values))
 
     def _write_path(self, chunk, times, space: dict) -> None:
         """The momentum-space path of a chunk (one static strip a chunk, joined to the last) and its current point."""
@@ -279,6 +299,36 @@ def check_creatable(path: Path, field: str) -> None:
     handle, probe = tempfile.mkstemp(dir=existing, prefix=f".{path.name[:100]}.", suffix=".partial")
     os.close(handle)
     os.unlink(probe)
+
+
+def _blocks(chunk, rows: int) -> np.ndarray:
+    """Indices (in the chunk) of the first sample of each block of `rows` run samples it holds;
+    blocks are counted from the run's first sample, so a chunk boundary may cut one in two."""
+    block = (chunk.first_row + np.arange(len(chunk.time))) // rows
+    return np.flatnonzero(np.r_[True, block[1:] != block[:-1]]) if len(block) else block
+
+
+def envelope(chunk, rows: int) -> tuple[np.ndarray, dict, dict]:
+    """The envelope of a chunk's signals over blocks of `rows` samples (`_blocks`): times (2 m,)
+    [s], each block's first and last sample time, and {key: (2 m, width)} the smallest and the
+    largest value of each component over the block, repeated at both times (NaN samples left
+    out; NaN where a block has none). Every sample lies between the two over its block."""
+    starts = _blocks(chunk, rows)
+    ends = np.r_[starts[1:], len(chunk.time)] - 1
+    times = np.column_stack([chunk.time[starts], chunk.time[ends]]).ravel()
+    low, high = {}, {}
+    with np.errstate(all="ignore"):
+        for key, values in chunk.signals.items():
+            values = np.asarray(values, float).reshape(len(chunk.time), -1)
+            low[key] = np.repeat(np.fmin.reduceat(values, starts, axis=0), 2, axis=0)
+            high[key] = np.repeat(np.fmax.reduceat(values, starts, axis=0), 2, axis=0)
+    return times, low, high
+
+
+def block_starts(chunk, rows: int):
+    """The chunk's samples at the first sample of each block (`_blocks`): the 3D scene of an enveloped trace."""
+    keep = _blocks(chunk, rows)
+    return Chunk(chunk.first_row, chunk.time[keep], {key: values[keep] for key, values in chunk.signals.items()})
 
 
 def _write_scene_static(rec, scene: dict) -> None:

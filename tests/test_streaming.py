@@ -255,3 +255,50 @@ def test_the_windowed_reduced_cmg_reference_agrees_with_the_whole_run_integratio
         omega = np.concatenate([p.signals["reference/omega"] for p in parts])
         assert omega.shape == whole.shape
         assert np.max(np.abs(omega - whole)) <= tolerance, (window, np.max(np.abs(omega - whole)))
+
+
+def test_an_enveloped_trace_holds_every_full_rate_sample_between_its_min_and_max(tmp_path):
+    """sim.trace_envelope_s: the .rrd holds per block the min and max of every signal; each
+    sample of the same run at full rate lies within its block's envelope, the bounds are
+    attained (they are the block's extremes, not padded), and the file has fewer rows."""
+    import testbed
+    from testbed.trace import read_signals
+
+    rng = np.random.default_rng(15)
+    inertia = sorted(rng.uniform(200, 2000, 3))  # a body not in the repository, tumbling about a random axis
+    axis = rng.normal(size=3)
+    spec = {"name": "enveloped", "model": {"system": "satellite", "inertia_kg_m2": [float(i) for i in inertia]},
+            "initial": {"omega_deg_s": [float(w) for w in 2.0 * axis / np.linalg.norm(axis)]},
+            "sim": {"duration_s": 47.3, "dt_s": 0.01, "control_period_s": 0.01, "trace_period_s": 0.01,
+                    "trace_envelope_s": 0.7},
+            "pipeline": {"sensor": {"type": "ideal_attitude"}, "estimator": {"type": "attitude"},
+                         "law": {"type": "lebedev", "task": "detumble", "residual_rate_deg_s": 0.1, "gains_per_s": [-0.1, -0.1, -0.1]}, "allocator": {"type": "ideal_torque"}}}
+    result = testbed.run(spec, out=tmp_path / "enveloped.rrd")
+    assert result.status == "ok"
+    written = read_signals(tmp_path / "enveloped.rrd")
+    rows = 70  # 0.7 s of 0.01 s samples
+    for key in ("truth/omega", "truth/quat", "law/torque"):
+        t, full = result.trace[key]
+        t_env, low = written[f"{key}/min"]
+        _, high = written[f"{key}/max"]
+        assert len(t_env) < 2 * len(t) / rows + 20  # two rows a block (+ blocks cut by chunk ends)
+        starts, ends = t_env[0::2], t_env[1::2]
+        block = np.searchsorted(starts, t + 1e-9, side="right") - 1  # the block each sample falls in
+        assert np.all(t <= ends[block] + 1e-9)  # the blocks cover every sample
+        lo, hi = low[0::2][block], high[0::2][block]
+        assert np.all(lo <= full) and np.all(full <= hi), key
+        for k in range(len(starts)):  # each bound is a sample's value
+            inside = full[block == k]
+            assert np.array_equal(lo[block == k][0], inside.min(axis=0)) and np.array_equal(hi[block == k][0], inside.max(axis=0))
+    assert "truth/omega" not in written  # the full-rate series is not written
+
+
+def test_an_envelope_must_be_whole_trace_periods():
+    import testbed
+    from testbed.errors import InputError
+
+    spec = {"name": "bad", "model": {"system": "satellite", "inertia_kg_m2": [800, 1000, 1200]},
+            "sim": {"duration_s": 10, "dt_s": 0.01, "trace_period_s": 0.1, "trace_envelope_s": 0.25},
+            "pipeline": {"sensor": {"type": "ideal_attitude"}, "estimator": {"type": "attitude"}, "law": {"type": "lebedev", "task": "detumble", "residual_rate_deg_s": 0.1, "gains_per_s": [-0.1, -0.1, -0.1]}, "allocator": {"type": "ideal_torque"}}}
+    with pytest.raises(InputError, match="trace_envelope_s"):
+        testbed.run(spec)
