@@ -141,6 +141,8 @@ class TraceWriter:
         self.units = UNITS | (scene or {}).get("units", {})
         self.keys: dict[str, None] = {}  # every signal written, in order
         self.path_end = None  # the momentum-space path's last point and colour, to join the next chunk's strip
+        space = (scene or {}).get("momentum_space")
+        self.path_radius = 0.003 * _extent(space) if space else None  # once: the surfaces hold many points
         self.strips = 0
         unfinished = {"scenario": scenario_name, "sim_s": 0.0, "wall_s": 0.0, "status": "error",
                       "error": "the run did not finish: this trace holds the chunks written before it stopped",
@@ -196,7 +198,7 @@ class TraceWriter:
         measure = np.asarray(chunk.signals[space["measure"]], float).reshape(len(path), -1)[:, 0] \
             if space.get("measure") in chunk.signals else np.full(len(path), np.nan)
         colors = measure_colors(measure, space.get("measure_range", (0.0, 1.0)))
-        radius = 0.003 * _extent(space)
+        radius = self.path_radius
         points = path if self.path_end is None else np.vstack([self.path_end, path])
         if len(points) > 1:
             self.rec.log(f"{MOMENTUM_SPACE}/path/{self.strips}",
