@@ -25,13 +25,23 @@ def _max(state, values):
 
 
 @dataclass(frozen=True)
-class MaxNorm:
-    """max over samples of |v| (Euclidean norm of each row) of signal `key`."""
+class _OfSignal:
+    """A reduction of signal `key`: its state is None until a chunk holding `key` arrives."""
 
     key: str
 
     def start(self):
         return None
+
+    def result(self, state):
+        if state is None:
+            raise ValueError(f"{self.key} was not recorded")
+        return state
+
+
+@dataclass(frozen=True)
+class MaxNorm(_OfSignal):
+    """max over samples of |v| (Euclidean norm of each row) of signal `key`."""
 
     def update(self, state, chunk: Chunk):
         if self.key not in chunk.signals:
@@ -39,19 +49,12 @@ class MaxNorm:
         return _max(state, np.linalg.norm(chunk.signals[self.key], axis=1))
 
     def result(self, state) -> float:
-        if state is None:
-            raise ValueError(f"{self.key} was not recorded")
-        return float(state)
+        return float(super().result(state))
 
 
 @dataclass(frozen=True)
-class MaxAbs:
+class MaxAbs(_OfSignal):
     """max over samples and components of |v| of signal `key` (np.max(np.abs(v)))."""
-
-    key: str
-
-    def start(self):
-        return None
 
     def update(self, state, chunk: Chunk):
         if self.key not in chunk.signals:
@@ -60,16 +63,12 @@ class MaxAbs:
         return _max(state, values.reshape(len(values), -1).max(axis=1))
 
     def result(self, state) -> float:
-        if state is None:
-            raise ValueError(f"{self.key} was not recorded")
-        return float(state)
+        return float(super().result(state))
 
 
 @dataclass(frozen=True)
-class MaxDistanceFromFirst:
+class MaxDistanceFromFirst(_OfSignal):
     """max over samples of |v(t) - v(t_0)|, v(t_0) the signal's first recorded row."""
-
-    key: str
 
     def start(self):
         return (None, None)
@@ -84,49 +83,27 @@ class MaxDistanceFromFirst:
         return first, _max(peak, np.linalg.norm(values - first, axis=1))
 
     def result(self, state) -> float:
-        if state[1] is None:
-            raise ValueError(f"{self.key} was not recorded")
-        return float(state[1])
+        return float(super().result(state[1]))
 
 
 @dataclass(frozen=True)
-class First:
+class First(_OfSignal):
     """The first recorded row of signal `key` (the run's initial sample)."""
-
-    key: str
-
-    def start(self):
-        return None
 
     def update(self, state, chunk: Chunk):
         if state is not None or self.key not in chunk.signals or len(chunk.time) == 0:
             return state
         return chunk.signals[self.key][0].copy()
 
-    def result(self, state) -> np.ndarray:
-        if state is None:
-            raise ValueError(f"{self.key} was not recorded")
-        return state
-
 
 @dataclass(frozen=True)
-class Last:
+class Last(_OfSignal):
     """The last recorded row of signal `key` (the run's final sample)."""
-
-    key: str
-
-    def start(self):
-        return None
 
     def update(self, state, chunk: Chunk):
         if self.key not in chunk.signals or len(chunk.time) == 0:
             return state
         return chunk.signals[self.key][-1].copy()
-
-    def result(self, state) -> np.ndarray:
-        if state is None:
-            raise ValueError(f"{self.key} was not recorded")
-        return state
 
 
 class Reductions:

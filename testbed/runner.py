@@ -128,8 +128,8 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     `keep_data` keeps the whole trace and what the metrics saw in the result (otherwise only the
     signals the metrics need are kept: memory does not grow with the run for metrics that are
     running reductions); `live`: further Rerun sinks (a viewer) the trace is streamed to as it
-    goes; the file and the sinks get a chunk at least every FLUSH_AFTER_S of wall time; `progress(fraction)` is called about 200
-    times."""
+    goes; the file and the sinks get a chunk at least every FLUSH_AFTER_S of wall time;
+    `progress(fraction)` is called about 200 times."""
     wall0 = time.perf_counter()
     out = trace.output_path(out) if out is not None else None  # refused before the run, not after
     plant, pipeline, reference = prepare(scenario)

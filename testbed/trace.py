@@ -158,9 +158,8 @@ class TraceWriter:
         if self.envelope_rows > 1:
             self._write_envelope(chunk, new)
             chunk = block_starts(chunk, self.envelope_rows)
-            times = rr.TimeColumn(TIMELINE, duration=chunk.time)
-        else:
-            times = rr.TimeColumn(TIMELINE, duration=chunk.time)
+        times = rr.TimeColumn(TIMELINE, duration=chunk.time)
+        if self.envelope_rows == 1:
             for key, values in chunk.signals.items():
                 values = np.asarray(values, float).reshape(len(chunk.time), -1)
                 if key in new:
