@@ -102,7 +102,8 @@ class Allocator(Protocol):
     law's dict, `actuators` what the plant's encoders report (e.g. `gimbal_angle` [rad],
     `rotor_rate` [rad/s]). The class attribute `output` names the command key the plant takes
     (`body_torque` (3,) [N m], `gimbal_rates` (4,) [rad/s], ...: `Plant.actuators`); the command
-    is held over the control period."""
+    is held over the control period. A built-in allocator may hand a command as a list of plain
+    floats (what the plant's servo computes with), which the trace records like an array."""
 
     output: str
 
@@ -234,7 +235,8 @@ class Pipeline:
     nothing it does not need: a built-in empty slot (`none`, which returns nothing) is not
     called, a built-in stage's output is not checked, and the outputs stay where the stages
     left them (`measurement`, `estimate`, `demand`, `command`) until `signals()` gathers
-    them for a trace sample."""
+    them for a trace sample. When the allocator is the only stage that runs (an open-loop
+    command), `tick` is `_allocate`, which asks nothing of the empty slots."""
 
     def __init__(self, sensor, estimator, law, allocator, checks: dict | None = None):
         self.sensor, self.estimator, self.law, self.allocator = sensor, estimator, law, allocator
@@ -249,6 +251,8 @@ class Pipeline:
             not _returns_nothing(stage_object) for stage_object in (sensor, estimator, law, allocator))
         self._sensor_check, self._estimator_check, self._law_check, self._allocator_check = (
             self.checks.get(slot) for slot in SLOTS)
+        if self._allocating and not (self._sensing or self._estimating or self._controlling):
+            self.tick = self._allocate  # an open-loop command: the allocator alone
 
     @classmethod
     def from_config(cls, configs: dict, ctx: StageContext, actuators: dict | None = None) -> "Pipeline":
@@ -307,9 +311,25 @@ class Pipeline:
         except StageFailed:
             raise
         except Exception as exc:  # the stage's own failure: name it, keep the trace so far
-            stage_object = getattr(self, slot)
-            raise StageFailed(t, slot, getattr(stage_object, "type_name", type(stage_object).__name__),
-                              f"{type(exc).__name__}: {exc}") from exc
+            raise self._failed(t, slot, exc) from exc
+
+    def _allocate(self, t: float, plant) -> None:
+        """`tick` when the allocator is the only stage that runs: the same, with nothing to skip."""
+        try:
+            self.command = self.allocator.allocate(t, self.demand, self.estimate,
+                                                   plant.actuator_state() if self._needs_actuators else {})
+            if self._allocator_check is not None:
+                self._allocator_check(t, self.command)
+            plant.apply(self.command)
+        except StageFailed:
+            raise
+        except Exception as exc:
+            raise self._failed(t, "allocator", exc) from exc
+
+    def _failed(self, t: float, slot: str, exc: Exception) -> StageFailed:
+        stage_object = getattr(self, slot)
+        return StageFailed(t, slot, getattr(stage_object, "type_name", type(stage_object).__name__),
+                           f"{type(exc).__name__}: {exc}")
 
     def signals(self) -> dict[str, dict[str, np.ndarray]]:
         """The last tick's outputs by slot, as the trace records them."""

@@ -232,21 +232,48 @@ def _reference_chunk(times, omega_ref, omega_truth, first_row: int = 0) -> Chunk
     return Chunk(first_row, times, {"reference/omega": omega_ref, "reference/omega_error": omega_truth - omega_ref})
 
 
+# Ticks between two looks for a bad state (Plant.check_state): a divergence is reported
+# within this many ticks of where it happened, and the look costs a tenth of its price a tick.
+CHECK_EVERY_TICKS = 10
+
+
 def _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress) -> None:
     """Tick k: the pipeline at t = k Tc, a trace sample of the stages' outputs and the truth
-    every `trace_every` ticks, then Tc / dt physics steps; the truth alone at the end (always)."""
+    every `trace_every` ticks, then Tc / dt physics steps; the truth alone at the end (always).
+
+    The ticks run in blocks that start at a trace sample (`block_ticks`); the plant is
+    checked for a bad state at the end of each block, and before a stage's failure is
+    reported (a state MuJoCo reset may be what the stage failed on)."""
     steps = sim.steps_per_tick
     tc = sim.control_period_s
+    block = block_ticks(trace_every, CHECK_EVERY_TICKS)
     report_every = max(1, n_ticks // 200)
-    tick, step = pipeline.tick, plant.step
-    for k in range(n_ticks):
-        t = k * tc
-        tick(t, plant)
-        if k % trace_every == 0:
-            signals = pipeline.signals()
-            signals["truth"] = plant.truth()
-            recorder.sample(t, signals)
-        step(steps)
-        if progress is not None and k % report_every == 0:
-            progress(k / n_ticks)
+    next_report = 0
+    tick, advance, check = pipeline.tick, plant.stepper(steps), plant.check_state
+    for first in range(0, n_ticks, block):
+        t0 = first * tc
+        k = first
+        try:
+            tick(t0, plant)
+            if first % trace_every == 0:
+                signals = pipeline.signals()
+                signals["truth"] = plant.truth()
+                recorder.sample(t0, signals)
+            advance()
+            for k in range(first + 1, min(first + block, n_ticks)):
+                tick(k * tc, plant)
+                advance()
+        except (StageFailed, FloatingPointError):
+            check(t0, (k - first) * steps)
+            raise
+        check(t0, (k + 1 - first) * steps)
+        if progress is not None and first >= next_report:
+            progress(first / n_ticks)
+            next_report = first + report_every
     recorder.sample(n_ticks * tc, {"truth": plant.truth()})  # the final state, on the trace grid or not
+
+
+def block_ticks(trace_every: int, longest: int) -> int:
+    """The largest number of ticks <= `longest` that divides `trace_every`: blocks of it
+    start at every trace sample."""
+    return max(n for n in range(1, min(trace_every, longest) + 1) if trace_every % n == 0)
