@@ -228,6 +228,9 @@ def recording_to(path, application: str = APP_ID, live: list | None = None):
     Rerun sinks (`rr.GrpcSink(url)` for a viewer) that receive the same stream."""
     partial, rec = None, None
     try:
+        # the stream before the file: a signal sent once the .partial exists cannot land in the
+        # stream's constructor (a half-built stream prints a traceback when collected)
+        rec = rr.RecordingStream(application, recording_id=str(uuid.uuid4()))
         sinks = list(live or [])
         if path is not None:
             path = Path(path)
@@ -235,7 +238,6 @@ def recording_to(path, application: str = APP_ID, live: list | None = None):
             handle, partial = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".partial")
             os.close(handle)
             sinks.append(rr.FileSink(partial))
-        rec = rr.RecordingStream(application, recording_id=str(uuid.uuid4()))
         rec.set_sinks(*sinks)  # before logging, so nothing is buffered for a viewer
         yield rec
         rec.flush()
