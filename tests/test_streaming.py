@@ -122,8 +122,10 @@ def receiver(tmp_path):
     received = tmp_path / "received.rrd"
     log = tmp_path / "receiver.log"
     with open(log, "w") as handle:
+        # a session of its own: the `rerun` script starts the viewer binary as a child, which
+        # must be stopped with it (the process group), not left listening
         proc = subprocess.Popen([str(Path(sys.executable).with_name("rerun")), "--port", str(port), "--save",
-                                 str(received)], stdout=handle, stderr=subprocess.STDOUT)
+                                 str(received)], stdout=handle, stderr=subprocess.STDOUT, start_new_session=True)
     try:
         deadline = time.monotonic() + 30
         while "Listening" not in log.read_text() and time.monotonic() < deadline:
@@ -131,7 +133,7 @@ def receiver(tmp_path):
         assert "Listening" in log.read_text(), log.read_text()
         yield f"rerun+http://127.0.0.1:{port}/proxy", received
     finally:
-        proc.terminate()
+        os.killpg(proc.pid, signal.SIGTERM)
         proc.wait(timeout=30)
 
 
