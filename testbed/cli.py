@@ -22,8 +22,11 @@ from testbed.commands import COMMANDS
 from testbed.errors import InputError
 from testbed.plugins import discover
 from testbed.progress import advance_to, progress_bar
+from testbed.runner import run_scenario
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+VIEWER_URL = "rerun+http://127.0.0.1:{port}/proxy"
+VIEWER_PORT = 9876  # Rerun's default
 
 
 class _Parser(argparse.ArgumentParser):
@@ -40,6 +43,12 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE",
                      help="override a scenario field (validated like the file)")
     run.add_argument("--json", action="store_true", help="print one JSON object")
+    live = run.add_mutually_exclusive_group()
+    live.add_argument("--view", action="store_true",
+                      help="spawn the Rerun viewer and stream the run to it as it goes (the .rrd is written too)")
+    live.add_argument("--connect", metavar="URL",
+                      help="stream the run as it goes to a Rerun viewer or server already running, "
+                           f"e.g. {VIEWER_URL.format(port=9876)} (the .rrd is written too)")
     check = sub.add_parser("check", help="run scenarios and print a table of their checks")
     check.add_argument("scenarios", nargs="*", help="files or names (default: all in scenarios/)")
     check.add_argument("--out-dir", default="runs", help="where the .rrd files go")
@@ -54,16 +63,39 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _run_one(name: str, overrides, out: str | None, show_progress: bool):
+def _run_one(name: str, overrides, out: str | None, show_progress: bool, view: bool = False, connect: str | None = None):
     scenario = api.load(name, overrides)
-    return _run_loaded(scenario, Path("runs") / f"{trace.file_stem(scenario.name)}.rrd" if out is None else out, show_progress)
+    out_path = trace.output_path(Path("runs") / f"{trace.file_stem(scenario.name)}.rrd" if out is None else out)
+    return _run_loaded(scenario, out_path, show_progress, _live_sinks(view, connect))
 
 
-def _run_loaded(scenario, out_path, show_progress: bool):
+def _live_sinks(view: bool, connect: str | None) -> list:
+    """The Rerun sinks a run is streamed to besides its file: a viewer spawned now (`--view`),
+    or one already running at `connect`. Called after the scenario is validated."""
+    if not view and connect is None:
+        return []
+    import rerun as rr
+
+    if view:
+        beside = Path(sys.executable).with_name("rerun")  # the viewer installed with the SDK
+        try:
+            rr.spawn(port=VIEWER_PORT, connect=False, executable_path=str(beside) if beside.exists() else None)
+        except (OSError, RuntimeError) as exc:
+            raise InputError("--view", f"cannot start the Rerun viewer: {exc}") from None
+        connect = VIEWER_URL.format(port=VIEWER_PORT)
+    try:
+        return [rr.GrpcSink(connect)]
+    except (RuntimeError, ValueError) as exc:
+        raise InputError("--connect", str(exc)) from None
+
+
+def _run_loaded(scenario, out_path, show_progress: bool, live: list | None = None):
     duration = scenario.sim.duration_s
     with progress_bar(scenario.name, duration, "sim s") as bar:
         bar.disable = bar.disable or not show_progress
-        return api.run(scenario, out_path, progress=lambda fraction: advance_to(bar, fraction * duration))
+        # the trace is streamed, not kept: the command line needs only the metrics
+        return run_scenario(scenario, out_path, progress=lambda fraction: advance_to(bar, fraction * duration),
+                            live=live)
 
 
 def _print_summary(result) -> None:
@@ -88,7 +120,7 @@ def _print_checks(rows) -> None:
 
 def _cmd_run(args) -> int:
     tty = sys.stderr.isatty() and not args.json
-    result = _run_one(args.scenario, args.set, args.out, tty)
+    result = _run_one(args.scenario, args.set, args.out, tty, args.view, args.connect)
     if args.json:
         print(json.dumps(result.as_json()))
     else:

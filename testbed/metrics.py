@@ -14,6 +14,7 @@ import numpy as np
 
 from testbed import pipeline, systems_registry
 from testbed.errors import InputError
+from testbed.reductions import First, Last, MaxDistanceFromFirst, MaxNorm
 from testbed.registry import Registry
 
 
@@ -23,16 +24,23 @@ class Metric:
     doc: str
     applies: Callable
     compute: Callable
+    uses: tuple | None = None  # signal keys whose history it reads, running reductions; None: everything
 
 
 METRICS = Registry("metric")
 
 
-def metric(name: str, applies: Callable = lambda scenario: True):
-    """Register `fn(run) -> float` as metric `name` (docstring = its definition)."""
+def metric(name: str, applies: Callable = lambda scenario: True, uses=None):
+    """Register `fn(run) -> float` as metric `name` (docstring = its definition).
+
+    `uses` says what the metric reads, so that a run keeps no more than that: signal keys whose
+    whole history it reads as `run.recorder[key]` (with `run.recorder.time`), and running
+    reductions (`testbed.reductions`) it reads as `run.reduced(reduction)`, which need no
+    history. None (the default) keeps every signal of the run in memory."""
 
     def register(fn):
-        METRICS.add(name, Metric(name, (fn.__doc__ or "").strip().splitlines()[0], applies, fn))
+        declared = None if uses is None else tuple(uses)
+        METRICS.add(name, Metric(name, (fn.__doc__ or "").strip().splitlines()[0], applies, fn, declared))
         return fn
 
     return register
@@ -40,6 +48,23 @@ def metric(name: str, applies: Callable = lambda scenario: True):
 
 def available(scenario) -> list[str]:
     return [name for name, m in METRICS.items() if m.applies(scenario)]
+
+
+def kept_signals(scenario) -> set[str] | None:
+    """The signal keys whose history the metrics of `scenario` read (None: every signal)."""
+    keys: set[str] = set()
+    for name in available(scenario):
+        uses = METRICS[name].uses
+        if uses is None:
+            return None
+        keys |= {u for u in uses if isinstance(u, str)}
+    return keys
+
+
+def reductions(scenario) -> list:
+    """The running reductions the metrics of `scenario` read, each once."""
+    return list(dict.fromkeys(u for name in available(scenario) for u in (METRICS[name].uses or ())
+                              if not isinstance(u, str)))
 
 
 def validate_checks(scenario) -> None:
@@ -71,12 +96,13 @@ def sample_norms(run, key: str) -> np.ndarray:
 
 def final_norm_metric(name: str, key: str, doc: str, applies: Callable = lambda scenario: True) -> None:
     """Register metric `name` = |v| of the recorded vector signal `key` at the last trace sample."""
+    last = Last(key)
 
     def final_norm(run) -> float:
-        return float(sample_norms(run, key)[-1])
+        return float(np.linalg.norm(run.reduced(last)))
 
     final_norm.__doc__ = doc
-    metric(name, applies)(final_norm)
+    metric(name, applies, uses=(last,))(final_norm)
 
 
 def evaluate_checks(scenario, values: dict[str, float], why: dict[str, str] | None = None) -> list[dict]:
@@ -102,26 +128,30 @@ def _conserves_momentum(scenario) -> bool:
     return _free_flying(scenario) and pipeline.output_of("allocator", scenario.stages["allocator"][0]) != "body_torque"
 
 
-@metric("momentum_drift_rel", applies=_conserves_momentum)
+MOMENTUM_DRIFT = MaxDistanceFromFirst("truth/angular_momentum_world")
+ENERGY_DRIFT = MaxDistanceFromFirst("truth/kinetic_energy")
+ENERGY_FIRST = First("truth/kinetic_energy")
+OMEGA_ERROR = MaxNorm("reference/omega_error")
+
+
+@metric("momentum_drift_rel", applies=_conserves_momentum, uses=(MOMENTUM_DRIFT,))
 def momentum_drift_rel(run) -> float:
     """max |L(t) - L(0)| / L_scale of the total inertial angular momentum; L_scale = max(|L(0)|, stored rotor momentum)."""
-    L = run.recorder["truth/angular_momentum_world"]
-    return float(np.max(np.linalg.norm(L - L[0], axis=1)) / run.momentum_scale)
+    return float(run.reduced(MOMENTUM_DRIFT) / run.momentum_scale)
 
 
-@metric("energy_drift_rel", applies=lambda s: s.stages["allocator"][0] == "none")
+@metric("energy_drift_rel", applies=lambda s: s.stages["allocator"][0] == "none", uses=(ENERGY_DRIFT, ENERGY_FIRST))
 def energy_drift_rel(run) -> float:
     """max |T(t) - T(0)| / T(0) of the kinetic energy (no actuator does work)."""
-    T = run.recorder["truth/kinetic_energy"][:, 0]
-    return float(np.max(np.abs(T - T[0])) / max(abs(T[0]), 1e-300))
+    return float(run.reduced(ENERGY_DRIFT) / max(abs(run.reduced(ENERGY_FIRST)[0]), 1e-300))
 
 
-@metric("max_omega_error_rad_s", applies=lambda s: s.reference is not None)
+@metric("max_omega_error_rad_s", applies=lambda s: s.reference is not None, uses=(OMEGA_ERROR,))
 def max_omega_error_rad_s(run) -> float:
     """max over samples of |w_truth - w_reference| (body frame) [rad/s]."""
     if run.reference_error:
         raise ValueError(run.reference_error)
-    return float(np.max(np.linalg.norm(run.recorder["reference/omega_error"], axis=1)))
+    return run.reduced(OMEGA_ERROR)
 
 
 final_norm_metric("final_omega_rad_s", "truth/omega", "|w| of the bus at the end of the run [rad/s].",

@@ -149,7 +149,9 @@ class Plant:
         return signals
 
     def derived_signals(self, recorder) -> dict[str, np.ndarray]:
-        """Signals computed from the recorded truth after the run (vectorised, off the loop)."""
+        """Signals computed from the recorded truth (vectorised, off the loop), a chunk of samples
+        at a time as the run goes: `recorder[key]` and `recorder.time` are the chunk's rows (a
+        `testbed.recorder.Chunk`), so each row must follow from the same row's values."""
         return {}
 
     def actuator_state(self) -> dict[str, np.ndarray]:

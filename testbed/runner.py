@@ -17,7 +17,8 @@ from testbed import metrics, references_registry, systems_registry, trace
 from testbed.errors import InputError
 from testbed.pipeline import Pipeline, StageContext, StageFailed, params_dict, stage_infos
 from testbed.plant import SimulationDiverged
-from testbed.recorder import Recorder, Trace
+from testbed.recorder import FLUSH_AFTER_S, Chunk, Recorder, Trace
+from testbed.reductions import Reductions
 
 
 @dataclass
@@ -34,6 +35,11 @@ class RunData:
     reference_error: str | None = None  # why the reference signals are missing, if they are
     # figures derived from the trace that several metrics share (see `shared`)
     _shared: dict = field(default_factory=dict)
+    reductions: Reductions = field(default_factory=Reductions)  # the running reductions the metrics declared
+
+    def reduced(self, reduction):
+        """The value of a running reduction a metric declared (`testbed.metrics.metric(uses=)`)."""
+        return self.reductions.value(reduction)
 
     def shared(self, key: str, compute):
         """compute() once per run for metrics that share an expensive derived figure."""
@@ -120,11 +126,14 @@ def stage_context(scenario, inertia, description=None, actuators=None, internal_
 
 
 def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = False,
-                 on_prepared=None) -> RunResult:
-    """Run `scenario`, write the trace to `out` (None: no file) and evaluate its checks;
-    `keep_data` keeps the trace and what the metrics saw in the result; `progress(fraction)`
-    is called about 200 times; `on_prepared(plant, pipeline)` sees the built plant and stages
-    before the first step (a campaign reads back what the case runs with)."""
+                 live: list | None = None, on_prepared=None) -> RunResult:
+    """Run `scenario`, stream the trace to `out` (None: no file) and evaluate its checks;
+    `keep_data` keeps the whole trace and what the metrics saw in the result (otherwise only the
+    signals the metrics need are kept: memory does not grow with the run for metrics that are
+    running reductions); `live`: further Rerun sinks (a viewer) the trace is streamed to as it
+    goes; the file and the sinks get a chunk at least every FLUSH_AFTER_S of wall time;
+    `progress(fraction)` is called about 200 times; `on_prepared(plant, pipeline)` sees the
+    built plant and stages before the first step (a campaign reads back what the case runs with)."""
     wall0 = time.perf_counter()
     out = trace.output_path(out) if out is not None else None  # refused before the run, not after
     plant, pipeline, reference = prepare(scenario)
@@ -138,46 +147,100 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     else:                          # sensor and estimator at their own, shorter period
         loop, steps = _multirate_loop, n_ticks * sim.samples_per_tick
         trace_every = round(sim.trace_period_s / sim.estimator_period_s)
-    recorder = Recorder(-(-steps // trace_every) + 1)  # the samples on the grid and the final state
     momentum_scale = plant.momentum_scale()
+    keep = None if keep_data else metrics.kept_signals(scenario)
+    if reference is not None and not hasattr(reference, "update") and keep is not None:
+        keep |= set(getattr(reference, "signals", None) or ()) | {"truth/omega"}
+        if getattr(reference, "signals", None) is None:
+            keep = None  # a reference that does not say what it reads sees everything
+    reductions = Reductions(metrics.reductions(scenario))
     status, error = "ok", None
-    try:
-        # a stage whose numbers overflow or turn invalid fails at that tick, named (StageFailed),
-        # instead of printing numpy warnings and handing NaN on
-        with np.errstate(over="raise", invalid="raise", divide="raise"):
-            loop(plant, pipeline, recorder, steps, trace_every, sim, progress)
-    except SimulationDiverged as exc:
-        status, error = "diverged", str(exc)
-    except StageFailed as exc:
-        status, error = "error", str(exc)
-    except FloatingPointError as exc:  # the plant's own read-outs overflowed: the state blew up
-        status, error = "diverged", str(SimulationDiverged(plant.time, f"{exc} in the plant's read-outs"))
-    if recorder.count:
-        for key, values in plant.derived_signals(recorder).items():
-            recorder.add_series(key, values)
-    data = RunData(scenario, recorder, {slot: stage.statistics for slot, stage in pipeline.stages().items()
-                                        if hasattr(stage, "statistics")},
-                   plant.description(), momentum_scale)
-    if reference is not None and recorder.count > 1:
+    with trace.recording_to(out, live=live) if out is not None or live else contextlib.nullcontext() as rec:
+        writer = trace.TraceWriter(rec, scenario.name, n_ticks * sim.control_period_s, plant.scene(),
+                                   envelope_rows=sim.envelope_rows) if rec else None
+        stream = _ChunkStream(plant, reference, reductions, writer)
+        # a chunk at least every FLUSH_AFTER_S of wall time: a viewer sees the run move, and a killed
+        # slow run loses at most that much of its trace
+        recorder = Recorder(keep=keep, on_chunk=stream, flush_after_s=FLUSH_AFTER_S if rec else None)
+        stream.recorder = recorder
         try:
-            with np.errstate(all="ignore"):
-                omega_ref = reference(recorder.time, recorder)
-            recorder.add_series("reference/omega", omega_ref)
-            recorder.add_series("reference/omega_error", recorder["truth/omega"] - omega_ref)
-        except (ValueError, ArithmeticError) as exc:  # e.g. too short a trace to interpolate
-            data.reference_error = f"the reference could not be evaluated: {exc}"
-    values, why = metrics.compute_all(data) if recorder.count > 1 else ({}, {})
-    checks = metrics.evaluate_checks(scenario, values, why)
-    result = RunResult(scenario.name, recorder.time[-1] if recorder.count else 0.0, 0.0, status, error,
-                       values, checks, str(out) if out else None, data if keep_data else None,
-                       Trace.from_recorder(recorder) if keep_data else None)
-    if out is not None:
-        result.wall_s = time.perf_counter() - wall0
-        summary = result.as_json() | {"stages": {slot: {"type": name, **params_dict(p)}
-                                                 for slot, (name, p) in scenario.stages.items()}}
-        trace.write_rrd(Path(out), recorder, summary, plant.scene())
+            # a stage whose numbers overflow or turn invalid fails at that tick, named (StageFailed),
+            # instead of printing numpy warnings and handing NaN on
+            with np.errstate(over="raise", invalid="raise", divide="raise"):
+                loop(plant, pipeline, recorder, steps, trace_every, sim, progress)
+        except SimulationDiverged as exc:
+            status, error = "diverged", str(exc)
+        except StageFailed as exc:
+            status, error = "error", str(exc)
+        except FloatingPointError as exc:  # the plant's own read-outs overflowed: the state blew up
+            status, error = "diverged", str(SimulationDiverged(plant.time, f"{exc} in the plant's read-outs"))
+        recorder.flush()
+        stream.finish()
+        data = RunData(scenario, recorder, {slot: stage.statistics for slot, stage in pipeline.stages().items()
+                                            if hasattr(stage, "statistics")},
+                       plant.description(), momentum_scale, stream.reference_error, reductions=reductions)
+        values, why = metrics.compute_all(data) if recorder.count > 1 else ({}, {})
+        checks = metrics.evaluate_checks(scenario, values, why)
+        result = RunResult(scenario.name, recorder.last_time, 0.0, status, error,
+                           values, checks, str(out) if out else None, data if keep_data else None,
+                           Trace.from_recorder(recorder) if keep_data else None)
+        if writer is not None:
+            result.wall_s = time.perf_counter() - wall0
+            writer.finish(result.as_json() | {"stages": {slot: {"type": name, **params_dict(p)}
+                                                         for slot, (name, p) in scenario.stages.items()}})
     result.wall_s = time.perf_counter() - wall0
     return result
+
+
+class _ChunkStream:
+    """What happens to each chunk of trace samples as the run goes: the plant's derived signals
+    are added, the reference advances (`update` of a streaming reference), the metrics'
+    reductions are updated and the chunk is written. A reference that needs the whole run is
+    evaluated by `finish` on the kept history; a reference that fails is left out, its reason
+    kept (`reference_error`) for the metrics that need it."""
+
+    def __init__(self, plant, reference, reductions, writer):
+        self.plant, self.reference, self.reductions, self.writer = plant, reference, reductions, writer
+        self.recorder = None
+        self.reference_error = None
+
+    def __call__(self, chunk) -> None:
+        with np.errstate(all="ignore"):  # NaN rows of a run cut short are recorded as they are
+            chunk.signals.update(self.plant.derived_signals(chunk))
+        self._emit(chunk)
+        if self.reference is not None and hasattr(self.reference, "update") and self.reference_error is None:
+            self._reference(lambda: self.reference.update(chunk))
+
+    def finish(self) -> None:
+        if self.reference is None or self.reference_error is not None:
+            return
+        if hasattr(self.reference, "update"):
+            self._reference(self.reference.finish)
+        elif self.recorder.count > 1:
+            recorder = self.recorder
+            self._reference(lambda: _reference_chunk(recorder.time, self.reference(recorder.time, recorder),
+                                                     recorder["truth/omega"]))
+
+    def _reference(self, evaluate) -> None:
+        try:
+            with np.errstate(all="ignore"):
+                chunk = evaluate()
+        except (ValueError, ArithmeticError) as exc:  # e.g. too short a trace to interpolate
+            self.reference_error = f"the reference could not be evaluated: {exc}"
+            return
+        if chunk is not None:
+            self._emit(chunk)
+            self.recorder.keep_chunk(chunk)
+
+    def _emit(self, chunk) -> None:
+        self.reductions.update(chunk)
+        if self.writer is not None:
+            self.writer.write(chunk)
+
+
+def _reference_chunk(times, omega_ref, omega_truth, first_row: int = 0) -> Chunk:
+    """The reference's rows: `reference/omega` and the truth's error from it."""
+    return Chunk(first_row, times, {"reference/omega": omega_ref, "reference/omega_error": omega_truth - omega_ref})
 
 
 # Ticks between two looks for a bad state (Plant.check_state): a divergence is reported

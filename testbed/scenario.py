@@ -7,7 +7,7 @@ Layout (every key optional unless marked; units are in the key names, SI and rad
     plugins: [FILE.py | module]     # user code that registers stages, systems, metrics (testbed.plugins)
     model: {system: NAME, ...}      # required: the physical system and its parameters (testbed.systems)
     initial: {omega_deg_s | omega_rad_s: [3], quat: [w, x, y, z]}
-    sim: {duration_s (required), dt_s, integrator, control_period_s, trace_period_s}
+    sim: {duration_s (required), dt_s, integrator, control_period_s, estimator_period_s, trace_period_s, trace_envelope_s}
     pipeline: {sensor|estimator|law|allocator: {type: NAME, ...params}}   (testbed.pipeline)
     reference: {type: NAME, ...}    # an analytic model the truth is compared with
     checks: {METRIC: {max: X} | {min: X}}
@@ -51,6 +51,8 @@ class SimConfig:
     estimator_period_s: float | None = param(None, gt=0, doc=(
         "sensor and estimator period, a whole divisor of control_period_s (default: control_period_s)"))
     trace_period_s: float | None = param(None, gt=0, doc="trace sample period (default control period)")
+    trace_envelope_s: float | None = param(None, gt=0, doc="the .rrd holds each signal's min and max over windows "
+                                           "of this length instead of every sample (README \"Long runs\")")
 
     def validate(self, path: str) -> None:
         if self.control_period_s is None:
@@ -66,6 +68,8 @@ class SimConfig:
                                                       schema.join(path, "control_period_s"), "estimator_period_s")
         schema.whole_multiple(self.trace_period_s, self.estimator_period_s, schema.join(path, "trace_period_s"),
                               "control_period_s" if self.samples_per_tick == 1 else "estimator_period_s")
+        self.envelope_rows = 1 if self.trace_envelope_s is None else schema.whole_multiple(
+            self.trace_envelope_s, self.trace_period_s, schema.join(path, "trace_envelope_s"), "trace_period_s")
         steps_total = self.duration_s / self.dt_s
         if steps_total > MAX_PHYSICS_STEPS:
             raise InputError(schema.join(path, "duration_s"), f"{self.duration_s:g} s at dt_s = {self.dt_s:g} s is "

@@ -4,16 +4,17 @@ Entity paths: `<group>/<signal>` for every recorded signal (groups `truth`, `sen
 `estimator`, `law`, `allocator`, `reference`), `world/bus` (attitude as a transform with the
 bus box), `world/angular_momentum` (total, world frame), `world/bus/<name>` for each
 body-frame momentum the plant's scene names (e.g. an actuator cluster's) and `run/result` (the metrics and checks as JSON, read back by
-`testbed inspect`). Everything is buffered and sent with `send_columns` on `sim_time`.
+`testbed inspect`). Signals are sent with `send_columns` on `sim_time`, a chunk of samples at a
+time as the run goes (`TraceWriter`).
 
 A plant's scene may add (testbed.scene builds them from the compiled model):
 - `moving_parts`: bodies on the bus, drawn at `world/bus/<body>/<child>...`, each a transform
   (turning with its hinge's recorded angle, or fixed), its geoms as `.../boxes` and
   `.../cylinders`, and optional momentum `arrows` in its frame as `.../momentum`;
 - `momentum_space`: a second 3D view at `momentum_space/`: point-cloud `surfaces` (name, points
-  (m, 3), color), the recorded `path` signal as `momentum_space/path` (segments coloured by the
-  recorded `measure` over `measure_range`: red low, green high) and its current value as
-  `momentum_space/now`.
+  (m, 3), color), the recorded `path` signal as `momentum_space/path/<k>` (one strip a chunk,
+  segments coloured by the recorded `measure` over `measure_range`: red low, green high) and
+  its current value as `momentum_space/now`.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from testbed.errors import InputError, quoted
-from testbed.recorder import Recorder, Trace
+from testbed.recorder import Chunk, Trace
 from testbed.scene import hinge_poses
 
 APP_ID = "gyrodyne-testbed"
@@ -68,13 +69,15 @@ GROUP_ORDER = ["truth", "reference", "sensor", "estimator", "law", "allocator"]
 MOMENTUM_SPACE = "momentum_space"
 
 
-def _blueprint(recorder: Recorder, scene: dict | None) -> rrb.Blueprint:
+def _blueprint(keys, t_end: float, scene: dict | None, path=None) -> rrb.Blueprint:
+    """The default layout: the 3D scene and the result on the left, a tab of plots per group
+    (`keys`: the signals), each over the whole run [0, t_end] s; `path`: the momentum-space
+    path recorded so far (the view looks at it side-on)."""
     groups: dict[str, list[str]] = {}
-    for key in sorted(recorder.keys(), key=lambda k: (GROUP_ORDER.index(k.split("/")[0])
+    for key in sorted(keys, key=lambda k: (GROUP_ORDER.index(k.split("/")[0])
                                                      if k.split("/")[0] in GROUP_ORDER else 99, k)):
         groups.setdefault(key.split("/")[0], []).append(key)
     # Every plot shows the whole run (not a window around the time cursor), legend out of the way.
-    t_end = float(recorder.time[-1]) if recorder.count else 1.0
     whole_run = rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.absolute(seconds=0.0),
                                                       end=rrb.TimeRangeBoundary.absolute(seconds=t_end)))
     tabs = [rrb.Grid(*[rrb.TimeSeriesView(origin=f"/{key}", name=key, axis_x=whole_run,
@@ -91,7 +94,7 @@ def _blueprint(recorder: Recorder, scene: dict | None) -> rrb.Blueprint:
                                                                      eye_up=[0, 0, 1])))
     space = (scene or {}).get("momentum_space")
     if space is not None:
-        eye = 2.3 * _extent(space) * _side_view(recorder[space["path"]] if space["path"] in recorder else np.zeros((1, 3)))
+        eye = 2.3 * _extent(space) * _side_view(np.zeros((1, 3)) if path is None else path)
         left.append(rrb.Spatial3DView(origin=f"/{MOMENTUM_SPACE}", name=space.get("title", "momentum"),
                                       eye_controls=rrb.EyeControls3D(position=eye, look_target=[0, 0, 0],
                                                                      eye_up=[0, 0, 1])))
@@ -120,37 +123,128 @@ def _side_view(path: np.ndarray) -> np.ndarray:
     return np.cos(np.radians(30)) * side + np.sin(np.radians(30)) * np.array([0.0, 0.0, 1.0])
 
 
-def write_rrd(path: Path, recorder: Recorder, result: dict, scene: dict | None = None) -> Path:
-    """Write `recorder`'s signals, the optional 3D `scene` and `result` to `path` (atomically,
-    see `recording_to`; `path` should come from `output_path`). `scene` may hold
-    `bus_half_size` (3,) [m] and a `momentum_scale` [m per N m s] for the arrows,
-    `body_momenta` {signal key: entity name} of body-frame momenta to draw on the bus, and
-    `units` {signal name: unit} beside UNITS.
+class TraceWriter:
+    """A run streamed to a Rerun recording chunk by chunk (`write`), then its result (`finish`).
+
+    Each chunk goes out with `send_columns` on `sim_time` and is flushed, so that a file sink
+    holds every chunk written so far if the process dies (SIGKILL included); until `finish`
+    the stored `run/result` says the run did not finish. `scene` may hold `bus_half_size` (3,)
+    [m] and a `momentum_scale` [m per N m s] for the arrows, `body_momenta` {signal key: entity
+    name} of body-frame momenta to draw on the bus, and `units` {signal name: unit} beside UNITS.
+    `envelope_rows` > 1: each signal is written as its envelope over blocks of that many samples
+    (`envelope`, entities `<key>/min` and `<key>/max`) and the 3D scene at each block's first
+    sample, so that a very long run gives a trace a viewer can open (README "Long runs").
     """
-    with recording_to(path) as rec:
-        _write_streams(rec, recorder, result, scene)
-    return Path(path)
+
+    def __init__(self, rec, scenario_name: str, end_time: float, scene: dict | None = None, envelope_rows: int = 1):
+        self.rec, self.end_time, self.scene, self.envelope_rows = rec, end_time, scene, envelope_rows
+        self.units = UNITS | (scene or {}).get("units", {})
+        self.keys: dict[str, None] = {}  # every signal written, in order
+        self.path_end = None  # the momentum-space path's last point and colour, to join the next chunk's strip
+        space = (scene or {}).get("momentum_space")
+        self.path_radius = 0.003 * _extent(space) if space else None  # once: the surfaces hold many points
+        self.strips = 0
+        unfinished = {"scenario": scenario_name, "sim_s": 0.0, "wall_s": 0.0, "status": "error",
+                      "error": "the run did not finish: this trace holds the chunks written before it stopped",
+                      "metrics": {}, "checks": []}
+        self._log_result(unfinished)
+        if scene is not None:
+            _write_scene_static(rec, scene)
+
+    def write(self, chunk) -> None:
+        """Send one chunk's signals (and the 3D scene at its samples), then flush it out."""
+        rec = self.rec
+        new = [key for key in chunk.signals if key not in self.keys]
+        if self.envelope_rows > 1:
+            self._write_envelope(chunk, new)
+            chunk = block_starts(chunk, self.envelope_rows)
+        times = rr.TimeColumn(TIMELINE, duration=chunk.time)
+        if self.envelope_rows == 1:
+            for key, values in chunk.signals.items():
+                values = np.asarray(values, float).reshape(len(chunk.time), -1)
+                if key in new:
+                    name = key.rsplit("/", 1)[-1]
+                    rec.log(key, rr.SeriesLines(names=_series_names(name, values.shape[1], self.units)), static=True)
+                rec.send_columns(key, indexes=[times], columns=rr.Scalars.columns(scalars=values))
+        if self.scene is not None and len(chunk.time):
+            _write_scene(rec, chunk, times, self.scene)
+            if "momentum_space" in self.scene:
+                self._write_path(chunk, times, self.scene["momentum_space"])
+        if new:
+            self.keys.update(dict.fromkeys(new))
+            space = (self.scene or {}).get("momentum_space")
+            path = chunk.signals.get(space["path"]) if space else None
+            rec.send_blueprint(_blueprint(self.keys, self.end_time, self.scene, path))
+        rec.flush()
+
+    def _write_envelope(self, chunk, new: list[str]) -> None:
+        """Each signal's envelope over the chunk's blocks as `<key>/min` and `<key>/max`."""
+        times, low, high = envelope(chunk, self.envelope_rows)
+        times = rr.TimeColumn(TIMELINE, duration=times)
+        for key in chunk.signals:
+            name = key.rsplit("/", 1)[-1]
+            for side, values in (("min", low[key]), ("max", high[key])):
+                if key in new:
+                    names = [f"{n} {side}" for n in _series_names(name, values.shape[1], self.units)]
+                    self.rec.log(f"{key}/{side}", rr.SeriesLines(names=names), static=True)
+                self.rec.send_columns(f"{key}/{side}", indexes=[times], columns=rr.Scalars.columns(scalars=values))
+
+    def _write_path(self, chunk, times, space: dict) -> None:
+        """The momentum-space path of a chunk (one static strip a chunk, joined to the last) and its current point."""
+        if space["path"] not in chunk.signals:
+            return
+        path = np.asarray(chunk.signals[space["path"]], float)
+        measure = np.asarray(chunk.signals[space["measure"]], float).reshape(len(path), -1)[:, 0] \
+            if space.get("measure") in chunk.signals else np.full(len(path), np.nan)
+        colors = measure_colors(measure, space.get("measure_range", (0.0, 1.0)))
+        radius = self.path_radius
+        points = path if self.path_end is None else np.vstack([self.path_end, path])
+        if len(points) > 1:
+            self.rec.log(f"{MOMENTUM_SPACE}/path/{self.strips}",
+                         rr.LineStrips3D(np.stack([points[:-1], points[1:]], axis=1), colors=colors[-(len(points) - 1):],
+                                         radii=2.0 * radius), static=True)
+            self.strips += 1
+        self.path_end = path[-1:]
+        self.rec.send_columns(f"{MOMENTUM_SPACE}/now", indexes=[times],
+                              columns=rr.Points3D.columns(positions=path, colors=colors,
+                                                          radii=np.full(len(path), 6.0 * radius)))
+
+    def finish(self, result: dict) -> None:
+        """Store the run's result (metrics and checks), replacing the unfinished one."""
+        self._log_result(result)
+        self.rec.log("run/summary", rr.TextDocument(_summary_markdown(result), media_type="text/markdown"), static=True)
+
+    def _log_result(self, result: dict) -> None:
+        self.rec.log(RESULT_ENTITY, rr.TextDocument(json.dumps(result, indent=1), media_type="text/plain"), static=True)
 
 
 @contextlib.contextmanager
-def recording_to(path, application: str = APP_ID):
-    """A Rerun recording saved to a unique temporary file beside `path` and renamed onto it when
-    the block ends (atomic): an interrupted write leaves nothing behind (the temporary file is
-    removed on any exception, Ctrl-C and SIGTERM included), and two writers of one path each
-    leave a whole file."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+def recording_to(path, application: str = APP_ID, live: list | None = None):
+    """A Rerun recording saved to a unique temporary file beside `path` (None: no file) and
+    renamed onto it when the block ends (atomic): an interrupted write leaves nothing behind
+    (the temporary file is removed on any exception, Ctrl-C and SIGTERM included), two writers
+    of one path each leave a whole file, and a process killed outright (SIGKILL) leaves the
+    temporary file `.<name>.<random>.partial`, readable up to its last flush. `live`: further
+    Rerun sinks (`rr.GrpcSink(url)` for a viewer) that receive the same stream."""
     partial, rec = None, None
     try:
-        handle, partial = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".partial")
-        os.close(handle)
+        # the stream before the file: a signal sent once the .partial exists cannot land in the
+        # stream's constructor (a half-built stream prints a traceback when collected)
         rec = rr.RecordingStream(application, recording_id=str(uuid.uuid4()))
-        rec.save(partial)  # before logging, so nothing is buffered for a viewer
+        sinks = list(live or [])
+        if path is not None:
+            path = Path(path)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            handle, partial = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".partial")
+            os.close(handle)
+            sinks.append(rr.FileSink(partial))
+        rec.set_sinks(*sinks)  # before logging, so nothing is buffered for a viewer
         yield rec
         rec.flush()
         rec.disconnect()
-        os.chmod(partial, 0o666 & ~_umask())  # mkstemp made it private; a trace is an ordinary file
-        os.replace(partial, path)
+        if partial is not None:
+            os.chmod(partial, 0o666 & ~_umask())  # mkstemp made it private; a trace is an ordinary file
+            os.replace(partial, path)
     except BaseException:
         if rec is not None:
             rec.disconnect()
@@ -210,25 +304,38 @@ def check_creatable(path: Path, field: str) -> None:
     os.unlink(probe)
 
 
-def _write_streams(rec, recorder: Recorder, result: dict, scene: dict | None) -> None:
-    rec.send_blueprint(_blueprint(recorder, scene))
-    times = rr.TimeColumn(TIMELINE, duration=recorder.time)
-    units = UNITS | (scene or {}).get("units", {})
-    for key in recorder.keys():
-        values = np.asarray(recorder[key], float)
-        if values.ndim == 1:
-            values = values[:, None]
-        values = values.reshape(len(values), -1)
-        name = key.rsplit("/", 1)[-1]
-        rec.log(key, rr.SeriesLines(names=_series_names(name, values.shape[1], units)), static=True)
-        rec.send_columns(key, indexes=[times], columns=rr.Scalars.columns(scalars=values))
-    if scene is not None:
-        _write_scene(rec, recorder, times, scene)
-    rec.log(RESULT_ENTITY, rr.TextDocument(json.dumps(result, indent=1), media_type="text/plain"), static=True)
-    rec.log("run/summary", rr.TextDocument(_summary_markdown(result), media_type="text/markdown"), static=True)
+def _blocks(chunk, rows: int) -> np.ndarray:
+    """Indices (in the chunk) of the first sample of each block of `rows` run samples it holds;
+    blocks are counted from the run's first sample, so a chunk boundary may cut one in two."""
+    block = (chunk.first_row + np.arange(len(chunk.time))) // rows
+    return np.flatnonzero(np.r_[True, block[1:] != block[:-1]]) if len(block) else block
 
 
-def _write_scene(rec, recorder: Recorder, times, scene: dict) -> None:
+def envelope(chunk, rows: int) -> tuple[np.ndarray, dict, dict]:
+    """The envelope of a chunk's signals over blocks of `rows` samples (`_blocks`): times (2 m,)
+    [s], each block's first and last sample time, and {key: (2 m, width)} the smallest and the
+    largest value of each component over the block, repeated at both times (NaN samples left
+    out; NaN where a block has none). Every sample lies between the two over its block."""
+    starts = _blocks(chunk, rows)
+    ends = np.r_[starts[1:], len(chunk.time)] - 1
+    times = np.column_stack([chunk.time[starts], chunk.time[ends]]).ravel()
+    low, high = {}, {}
+    with np.errstate(all="ignore"):
+        for key, values in chunk.signals.items():
+            values = np.asarray(values, float).reshape(len(chunk.time), -1)
+            low[key] = np.repeat(np.fmin.reduceat(values, starts, axis=0), 2, axis=0)
+            high[key] = np.repeat(np.fmax.reduceat(values, starts, axis=0), 2, axis=0)
+    return times, low, high
+
+
+def block_starts(chunk, rows: int):
+    """The chunk's samples at the first sample of each block (`_blocks`): the 3D scene of an enveloped trace."""
+    keep = _blocks(chunk, rows)
+    return Chunk(chunk.first_row, chunk.time[keep], {key: values[keep] for key, values in chunk.signals.items()})
+
+
+def _write_scene_static(rec, scene: dict) -> None:
+    """What does not move: the bus box and axes, the moving parts' shapes, the momentum-space surfaces."""
     half = np.asarray(scene.get("bus_half_size", [0.5, 0.5, 0.5]), float)
     # a solid translucent bus, or its edges only when parts inside it are drawn
     fill = "majorwireframe" if scene.get("moving_parts") else "solid"
@@ -236,24 +343,44 @@ def _write_scene(rec, recorder: Recorder, times, scene: dict) -> None:
     rec.log("world/bus/axes", rr.Arrows3D(vectors=np.eye(3) * 1.5 * half.max(),
                                           colors=[[220, 60, 60], [60, 200, 60], [60, 60, 220]],
                                           labels=["x", "y", "z"]), static=True)
-    if "truth/quat" in recorder:
-        q = recorder["truth/quat"]
+    for part in scene.get("moving_parts", []):
+        _write_part_static(rec, part, _momentum_scale(scene))
+    space = scene.get("momentum_space")
+    if space is not None:
+        radius = 0.003 * _extent(space)
+        for surface in space["surfaces"]:
+            rec.log(f"{MOMENTUM_SPACE}/{surface['name']}",
+                    rr.Points3D(np.asarray(surface["points"], float), colors=[surface["color"]], radii=radius), static=True)
+
+
+def _momentum_scale(scene: dict) -> float:
+    """Metres of arrow per N m s: arrows about twice the bus size, so they stick out of the box."""
+    half = np.asarray(scene.get("bus_half_size", [0.5, 0.5, 0.5]), float)
+    return float(scene.get("momentum_scale", 1.0)) * 2.0 * float(half.max())
+
+
+def _write_scene(rec, chunk, times, scene: dict) -> None:
+    """The bus attitude and the momentum arrows at a chunk's samples."""
+    signals = chunk.signals
+    if "truth/quat" in signals:
+        q = signals["truth/quat"]
         rec.send_columns("world/bus", indexes=[times],
                          columns=rr.Transform3D.columns(quaternion=q[:, [1, 2, 3, 0]]))  # Rerun: xyzw
-    # Arrows about twice the bus size, so they stick out of the box.
-    scale = float(scene.get("momentum_scale", 1.0)) * 2.0 * float(half.max())
+    scale = _momentum_scale(scene)
     arrows = [("truth/angular_momentum_world", "world/angular_momentum", [250, 200, 40])] + [
         (key, f"world/bus/{name}", [240, 110, 30]) for key, name in scene.get("body_momenta", {}).items()]
     for key, entity, color in arrows:
-        if key in recorder:
-            vectors = recorder[key] * scale
+        if key in signals:
+            vectors = signals[key] * scale
             rec.send_columns(entity, indexes=[times],
                              columns=rr.Arrows3D.columns(vectors=vectors, origins=np.zeros_like(vectors),
                                                          colors=np.tile(color, (len(vectors), 1))))
     for part in scene.get("moving_parts", []):
-        _write_part(rec, recorder, times, part, scale)
-    if "momentum_space" in scene:
-        _write_momentum_space(rec, recorder, times, scene["momentum_space"])
+        hinge = part["hinge"]
+        if hinge is not None and hinge["signal"] in signals:
+            translations, quats = hinge_poses(part, signals[hinge["signal"]][:, hinge["column"]])
+            rec.send_columns(f"world/bus/{part['entity']}", indexes=[times],
+                             columns=rr.Transform3D.columns(translation=translations, quaternion=_xyzw(quats)))
 
 
 def _xyzw(quat) -> np.ndarray:
@@ -261,15 +388,11 @@ def _xyzw(quat) -> np.ndarray:
     return np.asarray(quat, float)[..., [1, 2, 3, 0]]
 
 
-def _write_part(rec, recorder: Recorder, times, part: dict, scale: float) -> None:
-    """One moving part (testbed.scene.moving_parts): its frame, its geoms, its momentum arrows."""
+def _write_part_static(rec, part: dict, scale: float) -> None:
+    """One moving part (testbed.scene.moving_parts): its frame when no hinge turns it, its geoms,
+    its momentum arrows (the hinged frames follow their signals chunk by chunk, `_write_scene`)."""
     entity = f"world/bus/{part['entity']}"
-    hinge = part["hinge"]
-    if hinge is not None and hinge["signal"] in recorder:
-        translations, quats = hinge_poses(part, recorder[hinge["signal"]][:, hinge["column"]])
-        rec.send_columns(entity, indexes=[times],
-                         columns=rr.Transform3D.columns(translation=translations, quaternion=_xyzw(quats)))
-    else:
+    if part["hinge"] is None:
         rec.log(entity, rr.Transform3D(translation=part["pos"], quaternion=_xyzw(part["quat"])), static=True)
     for kind in ("box", "cylinder"):
         shapes = [shape for shape in part["shapes"] if shape["kind"] == kind]
@@ -302,25 +425,6 @@ def measure_colors(values: np.ndarray, value_range) -> np.ndarray:
     f = np.nan_to_num(f, nan=0.0)
     return np.column_stack([255 * np.minimum(1.0, 2.0 * (1.0 - f)), 255 * np.minimum(1.0, 2.0 * f),
                             np.full_like(f, 40.0)]).astype(np.uint8)
-
-
-def _write_momentum_space(rec, recorder: Recorder, times, space: dict) -> None:
-    """The second 3D view: surfaces as points, the recorded path coloured by its measure, the current point."""
-    radius = 0.003 * _extent(space)
-    for surface in space["surfaces"]:
-        rec.log(f"{MOMENTUM_SPACE}/{surface['name']}",
-                rr.Points3D(np.asarray(surface["points"], float), colors=[surface["color"]], radii=radius), static=True)
-    if space["path"] not in recorder:
-        return
-    path = np.asarray(recorder[space["path"]], float)
-    measure = np.asarray(recorder[space["measure"]], float).reshape(len(path), -1)[:, 0] \
-        if space.get("measure") in recorder else np.full(len(path), np.nan)
-    colors = measure_colors(measure, space.get("measure_range", (0.0, 1.0)))
-    if len(path) > 1:
-        rec.log(f"{MOMENTUM_SPACE}/path", rr.LineStrips3D(np.stack([path[:-1], path[1:]], axis=1), colors=colors[1:],
-                                                          radii=2.0 * radius), static=True)
-    rec.send_columns(f"{MOMENTUM_SPACE}/now", indexes=[times],
-                     columns=rr.Points3D.columns(positions=path, colors=colors, radii=np.full(len(path), 6.0 * radius)))
 
 
 def _summary_markdown(result: dict) -> str:

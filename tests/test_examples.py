@@ -31,7 +31,8 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 PD = EXAMPLES / "pd_steering.yaml"
 STAR = EXAMPLES / "star_tracker.yaml"
-VENV_BIN = ROOT / ".venv" / "bin"
+# the checkout's virtual environment; a worktree without one runs the interpreter running the tests
+VENV_BIN = ROOT / ".venv" / "bin" if (ROOT / ".venv" / "bin").is_dir() else Path(sys.executable).parent
 H = 25.0  # rotor_momentum_nms of both example scenarios
 
 

@@ -1121,7 +1121,7 @@ def test_signal_during_the_trace_write(tmp_path, sig, expected):
     assert interrupted_writes, "no attempt hit the write itself: the timing of this test needs a look"
 
 
-@pytest.mark.parametrize("where", ["RecordingStream", "save", "send_columns", "log", "flush", "disconnect"])
+@pytest.mark.parametrize("where", ["RecordingStream", "set_sinks", "send_columns", "log", "flush", "disconnect"])
 @pytest.mark.parametrize("interrupt, expected", [("KeyboardInterrupt", 130), ("_Terminated", 143)],
                          ids=["SIGINT", "SIGTERM"])
 def test_interrupt_at_each_step_of_the_trace_write(cli, monkeypatch, where, interrupt, expected):

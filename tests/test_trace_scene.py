@@ -142,11 +142,14 @@ def test_cmg_picture_read_back_from_the_trace(traces, name):
                       if str(c.entity_path).startswith("/momentum_space/internal/"))
     assert len(internal) == 7
     # the path: n - 1 segments between consecutive H samples, coloured by the measure; the current point
-    strips = np.array(components(path, "momentum_space/path")["LineStrips3D:strips"][0])
+    # streamed: one strip entity a chunk, momentum_space/path/<k>, each joined to the last
+    pieces = sorted({str(c.entity_path).lstrip("/") for c in RrdReader(str(path)).stream()
+                     if str(c.entity_path).startswith("/momentum_space/path/")}, key=lambda e: int(e.rsplit("/", 1)[1]))
+    strips = np.concatenate([np.array(components(path, e)["LineStrips3D:strips"][0]) for e in pieces])
     assert strips.shape == (n - 1, 2, 3)
     np.testing.assert_allclose(strips[:, 0], momentum[:-1], atol=1e-5 * geometry.h)
     np.testing.assert_allclose(strips[:, 1], momentum[1:], atol=1e-5 * geometry.h)
-    colors = np.array(components(path, "momentum_space/path")["LineStrips3D:colors"][0], dtype=np.uint32)
+    colors = np.concatenate([np.array(components(path, e)["LineStrips3D:colors"][0], dtype=np.uint32) for e in pieces])
     expected_rgb = measure_colors(measure[1:, 0], [0.0, (4 / 3) ** 1.5])
     np.testing.assert_array_equal(colors >> 24, expected_rgb[:, 0])
     np.testing.assert_array_equal((colors >> 16) & 255, expected_rgb[:, 1])

@@ -37,6 +37,7 @@ from scipy.interpolate import CubicHermiteSpline, CubicSpline
 from testbed.free_bus import BUS_BODY
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, ROTORS, ClusterGeometry
 from testbed.math.quaternion import quat_to_matrix
+from testbed.reference_windows import WindowedReference
 from testbed.references_registry import reference
 from testbed.schema import param
 
@@ -169,6 +170,16 @@ def reduced_cmg_omega(mass_model, t_samples, beta, beta_rate, rotor_rate, omega0
     docstring): L_b' = -w x L_b, w = I_sys(beta)^-1 (L_b - H_int), integrated with DOP853
     from w(t_samples[0]) = omega0. `mass_model`: CmgMassModel or a compiled MjModel.
     beta, beta_rate, rotor_rate: (len(t_samples), 4) histories from the truth."""
+    return reduced_cmg_segment(mass_model, t_samples, beta, beta_rate, rotor_rate, t_eval, omega0=omega0,
+                               t_start=t_samples[0], rtol=rtol, atol=atol)[0]
+
+
+def reduced_cmg_segment(mass_model, t_samples, beta, beta_rate, rotor_rate, t_eval, omega0=None,
+                        momentum0=None, t_start=None, rtol=1e-12, atol=1e-14):
+    """(w(t_eval) (N, 3) [rad/s], L_b(t_eval[-1]) [N m s]): the reduced model (module docstring)
+    integrated over [t_start, t_eval[-1]] (t_start: t_eval[0] unless given) from the bus-frame
+    momentum `momentum0` at t_start, or from the body rate `omega0` there. The histories cover
+    t_samples, which contains t_eval."""
     if isinstance(mass_model, mujoco.MjModel):
         mass_model = CmgMassModel.from_model(mass_model)
     _check_samples(t_samples, beta, beta_rate, rotor_rate)
@@ -184,16 +195,17 @@ def reduced_cmg_omega(mass_model, t_samples, beta, beta_rate, rotor_rate, omega0
     def rhs(t, momentum_body):
         return -np.cross(body_rate(t, momentum_body), momentum_body)
 
-    t0 = float(t_samples[0])
-    b, b_rate, rotor = history(t0)
-    momentum0 = (mass_model.system_inertia(b) @ np.asarray(omega0, dtype=float)
-                 + mass_model.internal_momentum(b, b_rate, rotor))
     t_eval = np.asarray(t_eval, dtype=float)
+    t0 = float(t_eval[0] if t_start is None else t_start)
+    if momentum0 is None:
+        b, b_rate, rotor = history(t0)
+        momentum0 = (mass_model.system_inertia(b) @ np.asarray(omega0, dtype=float)
+                     + mass_model.internal_momentum(b, b_rate, rotor))
     sol = solve_ivp(rhs, (t0, float(t_eval[-1])), momentum0, method="DOP853", t_eval=t_eval,
                     rtol=rtol, atol=atol)
     if not sol.success:
         raise RuntimeError(f"reduced CMG model integration failed: {sol.message}")
-    return np.array([body_rate(t, m) for t, m in zip(sol.t, sol.y.T)])
+    return np.array([body_rate(t, m) for t, m in zip(sol.t, sol.y.T)]), sol.y[:, -1].copy()
 
 
 def textbook_cmg_omega(inertia, geometry, t_samples, beta, beta_rate, omega0, t_eval,
@@ -234,9 +246,12 @@ def _reduced_cmg(plant, params):
     """Reduced CMG model L_b' = -w x L_b, w = I_sys(b)^-1 (L_b - H_int) from the recorded
     gimbal and rotor histories (`reduced_cmg_omega`)."""
     mass_model, omega0 = CmgMassModel.from_model(plant.model), plant.omega()
+    inputs = ("truth/gimbal_angle", "truth/gimbal_rate", "truth/rotor_rate")
 
-    def evaluate(times, recorder):
-        return reduced_cmg_omega(mass_model, times, recorder["truth/gimbal_angle"], recorder["truth/gimbal_rate"],
-                                 recorder["truth/rotor_rate"], omega0, times, rtol=params.rtol, atol=1e-14)
+    def segment(times, histories, lo, hi, momentum):
+        # from w(0) = omega0 in the first window, then from the momentum the last one ended with
+        return reduced_cmg_segment(mass_model, times, *(histories[key] for key in inputs), times[lo:hi + 1],
+                                   omega0=omega0 if momentum is None else None, momentum0=momentum,
+                                   rtol=params.rtol, atol=1e-14)
 
-    return evaluate
+    return WindowedReference(segment, inputs, state=None)
