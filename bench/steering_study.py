@@ -131,6 +131,23 @@ def table(rows: list[dict], laws: list[str]) -> str:
     return "\n".join(lines)
 
 
+def peak_rate_ratios(rows: list[dict], laws: list[str], reference: str = "pinv", plain: str = "minimax") -> str:
+    """Each law's peak gimbal rate over `reference`'s on the same slew (median of the per-slew
+    ratio): on every slew both finished, and on the slews where the `plain` law's path stays
+    >= SINGULAR from singular sets (min-max's advantage is a property of regular paths)."""
+    peak = {(r["slew"], r["law"]): r["peak_gimbal_rate_deg_s"] for r in rows if r["status"] == "ok"}
+    measure = {r["slew"]: r["min_singularity_measure"] for r in rows if r["law"] == plain and r["status"] == "ok"}
+    clear = {s for s, m in measure.items() if m >= SINGULAR}
+    lines = [f"| law | peak rate / {reference}'s, median: every slew | slews where {plain} stays >= {SINGULAR:g} "
+             f"({len(clear)}) |", "|---|---:|---:|"]
+    for law in laws:
+        ratios = {s: peak[s, law] / peak[s, reference] for (s, name) in peak if name == law and (s, reference) in peak}
+        on_clear = [v for s, v in ratios.items() if s in clear]
+        cells = [f"{np.median(list(v)):.3g}" if len(v) else "" for v in (ratios.values(), on_clear)]
+        lines.append(f"| {law} | {cells[0]} | {cells[1]} |")
+    return "\n".join(lines)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=200, help="slews (each flown by every law)")
@@ -162,6 +179,9 @@ def main() -> None:
                 rows += run_study(cases, args.workers, lambda n, total, failed: advance_to(bar, offset + n))
                 write_csv(args.csv, sorted(rows, key=lambda r: (r["slew"], laws.index(r["law"]))), ["slew", "law"])
     print(table(rows, laws))
+    if "pinv" in laws and "minimax" in laws:
+        print()
+        print(peak_rate_ratios(rows, laws))
 
 
 if __name__ == "__main__":

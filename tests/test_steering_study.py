@@ -91,3 +91,27 @@ def test_every_law_honours_the_study_limits_on_study_slews():
     # the limits were met, not idle: some law ran at the acceleration limit and came to a stop
     assert max(r["peak_gimbal_acceleration_deg_s2"] for r in rows) == pytest.approx(module.ACCELERATION_MAX_DEG_S2)
     assert min(r["min_gimbal_angle_margin_deg"] for r in rows) < 0.01
+
+
+def test_study_table_counts_and_medians_from_rows_written_and_read_back(tmp_path):
+    """Six hand-made rows (two laws, three slews) through write_csv and read_rows: the counts,
+    medians, maxima and per-slew ratios the README's tables show, worked out by hand."""
+    module = study()
+    rows = []
+    for slew, (m_pinv, m_minimax, rate_pinv, rate_minimax) in enumerate(
+            ((1.2, 5e-4, 4.0, 30.0), (0.9, 0.3, 5.0, 4.0), (0.1, 2e-3, 8.0, 6.0))):
+        for law, m, rate in (("pinv", m_pinv, rate_pinv), ("minimax", m_minimax, rate_minimax)):
+            rows.append({"case": len(rows), "slew": slew, "law": law, "status": "ok",
+                         "min_singularity_measure": m, "peak_gimbal_rate_deg_s": rate,
+                         "torque_error_rel": 0.01 * slew, "final_attitude_error_deg": 1e-3 * (slew + 1),
+                         "peak_gimbal_acceleration_deg_s2": 100.0, "rate_limit_violations": 0.0,
+                         "gimbal_acceleration_violations": float(law == "minimax"),
+                         "gimbal_angle_limit_violations": 0.0})
+    path = module.write_csv(tmp_path / "study.csv", rows, ["slew", "law"])
+    back = module.read_rows(path)
+    lines = module.table(back, ["pinv", "minimax"]).splitlines()
+    assert lines[2] == "| pinv | 0 of 3 | 0.1 | 5 / 8 | 0.01 / 0.02 | 0.002 / 0.003 | 0 | 0 / 0 / 0 |"
+    assert lines[3] == "| minimax | 1 of 3 | 0.0005 | 6 / 30 | 0.01 / 0.02 | 0.002 / 0.003 | 0 | 0 / 3 / 0 |"
+    # minimax / pinv per slew: 7.5, 0.8, 0.75 (median 0.8); slews where minimax stays >= 1e-3: 1, 2
+    ratios = module.peak_rate_ratios(back, ["pinv", "minimax"]).splitlines()
+    assert ratios[0].endswith("(2) |") and ratios[3] == "| minimax | 0.8 | 0.775 |"
