@@ -46,9 +46,9 @@ def run(scenario: Scenario | str | Path | dict, out: str | Path | None = None,
 def read(path: str | Path) -> RunResult:
     """A run read back from its `.rrd`: the stored result (status, metrics, checks) and every
     recorded signal as arrays. A file that is not a testbed run raises InputError."""
-    path = Path(path)
     if not existing_file("rrd", path):
         raise InputError("rrd", f"no such file: {path}")
+    path = Path(path)
     try:
         stored = read_rrd(path)["result"]
         trace = read_signals(path)

@@ -56,7 +56,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def _run_one(name: str, overrides, out: str | None, show_progress: bool):
     scenario = api.load(name, overrides)
-    return _run_loaded(scenario, out or Path("runs") / f"{trace.file_stem(scenario.name)}.rrd", show_progress)
+    return _run_loaded(scenario, Path("runs") / f"{trace.file_stem(scenario.name)}.rrd" if out is None else out, show_progress)
 
 
 def _run_loaded(scenario, out_path, show_progress: bool):
@@ -126,7 +126,7 @@ def _cmd_list(args) -> int:
         raise InputError("list", f"no scenario files (*.yaml) in {SCENARIO_DIR}")
     for path in paths:
         try:
-            description = str(read_yaml(path).get("description", "")).strip().splitlines()
+            description = str(read_yaml(path).get("description") or "").strip().splitlines()
         except InputError as exc:  # one broken file does not hide the others
             description = [f"(cannot be read: {exc.reason})"]
         print(f"{path.stem:28s} {description[0] if description else ''}")
@@ -136,8 +136,8 @@ def _cmd_list(args) -> int:
 def _cmd_inspect(args) -> int:
     from testbed.trace import read_rrd
 
+    api.read(args.rrd)  # refuses an empty name, a missing, foreign or damaged file (InputError)
     path = Path(args.rrd)
-    api.read(path)  # refuses a missing, foreign or damaged file (InputError)
     info = read_rrd(path)
     if args.json:
         print(json.dumps(info))

@@ -178,6 +178,8 @@ def output_path(out, field: str = "--out") -> Path:
     existing folder writable, a name the file system takes. A symlink is written through (its
     target is replaced, the link stays)."""
     text = str(out)
+    if not text:  # Path("") is the current folder
+        raise InputError(field, "is empty; give a file name such as run.rrd")
     try:
         path = Path(text).expanduser()
         if text.endswith(("/", os.sep)) or path.is_dir():

@@ -553,6 +553,14 @@ def test_out_with_a_trailing_slash_is_a_directory_even_if_it_does_not_exist(cli)
     assert_refused(result, "--out", "directory")
 
 
+def test_empty_names_are_refused_not_taken_as_the_current_folder(cli):
+    """Path("") is "."; an empty --out or inspect argument is a mistake, not the default path."""
+    result = cli("run", "cmg_open_loop", "--out", "", "--set", SHORT)
+    assert_refused(result, "--out", "empty")
+    assert everything_in(result.cwd) == []
+    assert_refused(cli("inspect", ""), "rrd", "empty")
+
+
 def test_out_under_an_existing_file(cli):
     (Path.cwd() / "f").write_text("keep")
     for out in ("f/x.rrd", "f/sub/x.rrd"):

@@ -159,7 +159,9 @@ def inertia_matrix(field: str, inertia) -> np.ndarray:
 
 def existing_file(field: str, path) -> bool:
     """Whether `path` names an existing regular file; a name the file system cannot take (too
-    long, a NUL byte) is refused rather than raising."""
+    long, a NUL byte) or an empty one is refused rather than raising."""
+    if not str(path):  # Path("") is the current folder
+        raise InputError(field, "is empty; give a file name")
     try:
         return Path(path).is_file()
     except (OSError, ValueError) as exc:
