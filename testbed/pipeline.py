@@ -49,8 +49,10 @@ class StageContext:
     """What a stage may know at construction: design data, never the running truth."""
 
     dt: float                   # physics step [s]
-    control_period: float       # pipeline sample period [s]
+    control_period: float       # law and allocator period [s]
     inertia: np.ndarray         # spacecraft locked inertia about its CoM, body axes [kg m^2]
+    internal_momentum: Any = None  # momentum of the moving parts relative to the bus at t = 0, body axes [N m s]
+    sample_period: float | None = None  # sensor and estimator period [s], a divisor of control_period (None: the same)
     description: Any = None     # the plant's static design data (e.g. an actuator cluster's geometry)
     system: str = ""            # model.system
     free_flying: bool = True    # a free body with three rotational degrees of freedom
@@ -102,7 +104,8 @@ class Allocator(Protocol):
     law's dict, `actuators` what the plant's encoders report (e.g. `gimbal_angle` [rad],
     `rotor_rate` [rad/s]). The class attribute `output` names the command key the plant takes
     (`body_torque` (3,) [N m], `gimbal_rates` (4,) [rad/s], ...: `Plant.actuators`); the command
-    is held over the control period."""
+    is held over the control period. A built-in allocator may hand a command as a list of plain
+    floats (what the plant's servo computes with), which the trace records like an array."""
 
     output: str
 
@@ -234,7 +237,8 @@ class Pipeline:
     nothing it does not need: a built-in empty slot (`none`, which returns nothing) is not
     called, a built-in stage's output is not checked, and the outputs stay where the stages
     left them (`measurement`, `estimate`, `demand`, `command`) until `signals()` gathers
-    them for a trace sample."""
+    them for a trace sample. When the allocator is the only stage that runs (an open-loop
+    command), `tick` is `_allocate`, which asks nothing of the empty slots."""
 
     def __init__(self, sensor, estimator, law, allocator, checks: dict | None = None):
         self.sensor, self.estimator, self.law, self.allocator = sensor, estimator, law, allocator
@@ -249,6 +253,8 @@ class Pipeline:
             not _returns_nothing(stage_object) for stage_object in (sensor, estimator, law, allocator))
         self._sensor_check, self._estimator_check, self._law_check, self._allocator_check = (
             self.checks.get(slot) for slot in SLOTS)
+        if self._allocating and not (self._sensing or self._estimating or self._controlling):
+            self.tick = self._allocate  # an open-loop command: the allocator alone
 
     @classmethod
     def from_config(cls, configs: dict, ctx: StageContext, actuators: dict | None = None) -> "Pipeline":
@@ -281,18 +287,9 @@ class Pipeline:
 
     def tick(self, t: float, plant) -> None:
         """Sensor, estimator, law and allocator at time t, then the command to the plant."""
-        slot = "sensor"
+        self.sense(t, plant)
+        slot = "law"
         try:
-            if self._sensing:
-                self.measurement = self.sensor.measure(t, plant)
-                if self._sensor_check is not None:
-                    self._sensor_check(t, self.measurement)
-            slot = "estimator"
-            if self._estimating:
-                self.estimate = self.estimator.estimate(t, self.measurement, self.command)
-                if self._estimator_check is not None:
-                    self._estimator_check(t, self.estimate)
-            slot = "law"
             if self._controlling:
                 self.demand = self.law.torque(t, self.estimate)
                 if self._law_check is not None:
@@ -307,9 +304,49 @@ class Pipeline:
         except StageFailed:
             raise
         except Exception as exc:  # the stage's own failure: name it, keep the trace so far
-            stage_object = getattr(self, slot)
-            raise StageFailed(t, slot, getattr(stage_object, "type_name", type(stage_object).__name__),
-                              f"{type(exc).__name__}: {exc}") from exc
+            raise self._failed(t, slot, exc) from exc
+
+    def _allocate(self, t: float, plant) -> None:
+        """`tick` when the allocator is the only stage that runs: the same, with nothing to skip."""
+        try:
+            self.command = self.allocator.allocate(t, self.demand, self.estimate,
+                                                   plant.actuator_state() if self._needs_actuators else {})
+            if self._allocator_check is not None:
+                self._allocator_check(t, self.command)
+            plant.apply(self.command)
+        except StageFailed:
+            raise
+        except Exception as exc:
+            raise self._failed(t, "allocator", exc) from exc
+
+    def _failed(self, t: float, slot: str, exc: Exception) -> StageFailed:
+        stage_object = getattr(self, slot)
+        return StageFailed(t, slot, getattr(stage_object, "type_name", type(stage_object).__name__),
+                           f"{type(exc).__name__}: {exc}")
+
+    def sense(self, t: float, plant) -> None:
+        """Sensor and estimator at time t: the first half of `tick`, and alone a sample between
+        two control instants when they run faster than the law (`sim.estimator_period_s`),
+        the command staying held."""
+        slot = "sensor"
+        try:
+            if self._sensing:
+                self.measurement = self.sensor.measure(t, plant)
+                if self._sensor_check is not None:
+                    self._sensor_check(t, self.measurement)
+            slot = "estimator"
+            if self._estimating:
+                self.estimate = self.estimator.estimate(t, self.measurement, self.command)
+                if self._estimator_check is not None:
+                    self._estimator_check(t, self.estimate)
+        except StageFailed:
+            raise
+        except Exception as exc:
+            raise self._failed(t, slot, exc) from exc
+
+    def sensed_signals(self) -> dict[str, dict[str, np.ndarray]]:
+        """The sensor's and estimator's last outputs, as the trace records them between control instants."""
+        return {"sensor": self.measurement, "estimator": self.estimate}
 
     def signals(self) -> dict[str, dict[str, np.ndarray]]:
         """The last tick's outputs by slot, as the trace records them."""

@@ -4,7 +4,9 @@ A reference registers with `@reference(name, systems, Params)` on its `prepare(p
 usually in the package of the system it describes. It is prepared from the plant at t = 0
 (design data and initial state, never the later truth) and returns
 `evaluate(times, recorder) -> omega (N, 3)`, run at the trace sample times after the run;
-it may read recorded inputs (e.g. actuator histories) from the recorder.
+it may read recorded inputs (e.g. actuator histories) from the recorder. A reference of a
+closed loop (`with_scenario=True`) is prepared as `prepare(plant, params, scenario)`: it reads the
+stages' validated parameters (design data, like the plant's) to build the same loop.
 """
 
 from __future__ import annotations
@@ -25,15 +27,16 @@ class _NoParams:
 class ReferenceKind:
     systems: tuple[str, ...]
     params: type
-    prepare: Callable   # (plant, params) -> evaluate(times, recorder) -> omega (N, 3)
+    prepare: Callable   # (plant, params[, scenario]) -> evaluate(times, recorder) -> omega (N, 3)
+    with_scenario: bool = False
 
 
 REFERENCES = Registry("reference")
 
 
-def reference(name: str, systems: tuple[str, ...], params: type = _NoParams):
+def reference(name: str, systems: tuple[str, ...], params: type = _NoParams, with_scenario: bool = False):
     def register(prepare):
-        REFERENCES.add(name, ReferenceKind(systems, params, prepare))
+        REFERENCES.add(name, ReferenceKind(systems, params, prepare, with_scenario))
         return prepare
 
     return register
@@ -55,4 +58,5 @@ def check_system(scenario) -> None:
 
 def prepare(scenario, plant):
     name, params = scenario.reference
-    return REFERENCES[name].prepare(plant, params)
+    kind = REFERENCES[name]
+    return kind.prepare(plant, params, scenario) if kind.with_scenario else kind.prepare(plant, params)

@@ -78,18 +78,19 @@ def prepare(scenario):
 
     Parameters so extreme that building from them overflows or breaks a factorisation are bad
     input, named by the part being built (model, pipeline slot, reference)."""
-    references_registry.check_system(scenario)
     with np.errstate(all="raise"), _refused_as("model"):
         plant = systems_registry.make_plant(scenario)
         plant.record_energy = scenario.stages["allocator"][0] == "none"
         plant.initialise(scenario.initial)
-        ctx = stage_context(scenario, plant.locked_inertia(), plant.description(), plant.actuator_state())
+        ctx = stage_context(scenario, plant.locked_inertia(), plant.description(), plant.actuator_state(),
+                            plant.internal_momentum_body())
     with np.errstate(all="raise"):
         pipeline = Pipeline.from_config(scenario.stages, ctx, plant.actuators)
     output = getattr(pipeline.allocator, "output", None)
     if output is not None and output not in plant.actuators:
         raise InputError("pipeline.allocator.type", f"{scenario.stages['allocator'][0]} commands {output}, "
                          f"which model.system {scenario.system} does not have")
+    references_registry.check_system(scenario)  # after the stages: a reference describes them
     with np.errstate(all="raise"), _refused_as("reference"):
         reference = references_registry.prepare(scenario, plant) if scenario.reference else None
     return plant, pipeline, reference
@@ -104,11 +105,13 @@ def _refused_as(field: str):
         raise InputError(field, f"its parameters cannot be built: {type(exc).__name__}: {exc}") from None
 
 
-def stage_context(scenario, inertia, description=None, actuators=None) -> StageContext:
+def stage_context(scenario, inertia, description=None, actuators=None, internal_momentum=None) -> StageContext:
     """What the stages of `scenario` may know at construction (testbed.pipeline.StageContext);
-    `actuators`: the plant's actuator read-outs at t = 0."""
+    `actuators`: the plant's actuator read-outs at t = 0, `internal_momentum` its H(0)."""
     sim = scenario.sim
-    return StageContext(dt=sim.dt_s, control_period=sim.control_period_s, inertia=inertia,
+    return StageContext(dt=sim.dt_s, control_period=sim.control_period_s, sample_period=sim.estimator_period_s,
+                        inertia=inertia,
+                        internal_momentum=np.zeros(3) if internal_momentum is None else internal_momentum,
                         description=description, system=scenario.system, model=scenario.model,
                         free_flying=systems_registry.is_free_flying(scenario),
                         initial=scenario.initial, integrator=sim.integrator,
@@ -125,15 +128,20 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     plant, pipeline, reference = prepare(scenario)
     sim = scenario.sim
     n_ticks = round(sim.duration_s / sim.control_period_s)
-    trace_every = round(sim.trace_period_s / sim.control_period_s)
-    recorder = Recorder(-(-n_ticks // trace_every) + 1)  # the samples on the grid and the final state
+    if sim.samples_per_tick == 1:  # one rate: every stage at the control period
+        loop, steps = _loop, n_ticks
+        trace_every = round(sim.trace_period_s / sim.control_period_s)
+    else:                          # sensor and estimator at their own, shorter period
+        loop, steps = _multirate_loop, n_ticks * sim.samples_per_tick
+        trace_every = round(sim.trace_period_s / sim.estimator_period_s)
+    recorder = Recorder(-(-steps // trace_every) + 1)  # the samples on the grid and the final state
     momentum_scale = plant.momentum_scale()
     status, error = "ok", None
     try:
         # a stage whose numbers overflow or turn invalid fails at that tick, named (StageFailed),
         # instead of printing numpy warnings and handing NaN on
         with np.errstate(over="raise", invalid="raise", divide="raise"):
-            _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress)
+            loop(plant, pipeline, recorder, steps, trace_every, sim, progress)
     except SimulationDiverged as exc:
         status, error = "diverged", str(exc)
     except StageFailed as exc:
@@ -168,21 +176,76 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     return result
 
 
+# Ticks between two looks for a bad state (Plant.check_state): a divergence is reported
+# within this many ticks of where it happened, and the look costs a tenth of its price a tick.
+CHECK_EVERY_TICKS = 10
+
+
 def _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress) -> None:
     """Tick k: the pipeline at t = k Tc, a trace sample of the stages' outputs and the truth
-    every `trace_every` ticks, then Tc / dt physics steps; the truth alone at the end (always)."""
+    every `trace_every` ticks, then Tc / dt physics steps; the truth alone at the end (always).
+
+    The ticks run in blocks that start at a trace sample (`block_ticks`); the plant is
+    checked for a bad state at the end of each block, and before a stage's failure is
+    reported (a state MuJoCo reset may be what the stage failed on)."""
     steps = sim.steps_per_tick
     tc = sim.control_period_s
+    block = block_ticks(trace_every, CHECK_EVERY_TICKS)
     report_every = max(1, n_ticks // 200)
-    tick, step = pipeline.tick, plant.step
-    for k in range(n_ticks):
-        t = k * tc
-        tick(t, plant)
-        if k % trace_every == 0:
-            signals = pipeline.signals()
+    next_report = 0
+    tick, advance, check = pipeline.tick, plant.stepper(steps), plant.check_state
+    for first in range(0, n_ticks, block):
+        t0 = first * tc
+        k = first
+        try:
+            tick(t0, plant)
+            if first % trace_every == 0:
+                signals = pipeline.signals()
+                signals["truth"] = plant.truth()
+                recorder.sample(t0, signals)
+            advance()
+            for k in range(first + 1, min(first + block, n_ticks)):
+                tick(k * tc, plant)
+                advance()
+        except (StageFailed, FloatingPointError):
+            check(t0, (k - first) * steps)
+            raise
+        check(t0, (k + 1 - first) * steps)
+        if progress is not None and first >= next_report:
+            progress(first / n_ticks)
+            next_report = first + report_every
+    recorder.sample(n_ticks * tc, {"truth": plant.truth()})  # the final state, on the trace grid or not
+
+
+def block_ticks(trace_every: int, longest: int) -> int:
+    """The largest number of ticks <= `longest` that divides `trace_every`: blocks of it
+    start at every trace sample."""
+    return max(n for n in range(1, min(trace_every, longest) + 1) if trace_every % n == 0)
+
+
+def _multirate_loop(plant, pipeline, recorder, n_samples, trace_every, sim, progress) -> None:
+    """Sample j (t = j Ts, Ts = sim.estimator_period_s): the sensor and the estimator, and at
+    every control instant (each `samples_per_tick`-th sample) the whole pipeline, whose command
+    stays held over the control period; Ts / dt physics steps. A trace sample every
+    `trace_every` samples holds the truth and the stages that ran at it: sensor and estimator at
+    their rate, law and allocator only at control instants (each stage at its own rate)."""
+    per_tick = sim.samples_per_tick
+    steps = sim.steps_per_sample
+    ts = sim.estimator_period_s
+    report_every = max(1, n_samples // 200)
+    tick, sense, step = pipeline.tick, pipeline.sense, plant.step
+    for j in range(n_samples):
+        t = j * ts
+        control = j % per_tick == 0
+        if control:
+            tick(t, plant)
+        else:
+            sense(t, plant)
+        if j % trace_every == 0:
+            signals = pipeline.signals() if control else pipeline.sensed_signals()
             signals["truth"] = plant.truth()
             recorder.sample(t, signals)
         step(steps)
-        if progress is not None and k % report_every == 0:
-            progress(k / n_ticks)
-    recorder.sample(n_ticks * tc, {"truth": plant.truth()})  # the final state, on the trace grid or not
+        if progress is not None and j % report_every == 0:
+            progress(j / n_samples)
+    recorder.sample(n_samples * ts, {"truth": plant.truth()})  # the final state, on the trace grid or not

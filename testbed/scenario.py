@@ -47,16 +47,25 @@ class SimConfig:
     duration_s: float = param(gt=0, doc="simulated time")
     dt_s: float = param(0.002, gt=0, le=1.0, doc="physics step")
     integrator: Literal["RK4", "Euler", "implicit", "implicitfast"] = "RK4"
-    control_period_s: float | None = param(None, gt=0, doc="pipeline period (default dt_s)")
+    control_period_s: float | None = param(None, gt=0, doc="law and allocator period (default dt_s)")
+    estimator_period_s: float | None = param(None, gt=0, doc=(
+        "sensor and estimator period, a whole divisor of control_period_s (default: control_period_s)"))
     trace_period_s: float | None = param(None, gt=0, doc="trace sample period (default control period)")
 
     def validate(self, path: str) -> None:
         if self.control_period_s is None:
             self.control_period_s = self.dt_s
+        if self.estimator_period_s is None:
+            self.estimator_period_s = self.control_period_s
         if self.trace_period_s is None:
             self.trace_period_s = self.control_period_s
         steps = schema.whole_multiple(self.control_period_s, self.dt_s, schema.join(path, "control_period_s"), "dt_s")
-        schema.whole_multiple(self.trace_period_s, self.control_period_s, schema.join(path, "trace_period_s"), "control_period_s")
+        self.steps_per_sample = schema.whole_multiple(self.estimator_period_s, self.dt_s,
+                                                      schema.join(path, "estimator_period_s"), "dt_s")
+        self.samples_per_tick = schema.whole_multiple(self.control_period_s, self.estimator_period_s,
+                                                      schema.join(path, "control_period_s"), "estimator_period_s")
+        schema.whole_multiple(self.trace_period_s, self.estimator_period_s, schema.join(path, "trace_period_s"),
+                              "control_period_s" if self.samples_per_tick == 1 else "estimator_period_s")
         steps_total = self.duration_s / self.dt_s
         if steps_total > MAX_PHYSICS_STEPS:
             raise InputError(schema.join(path, "duration_s"), f"{self.duration_s:g} s at dt_s = {self.dt_s:g} s is "

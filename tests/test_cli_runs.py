@@ -73,6 +73,27 @@ def test_divergence_stops_with_a_clear_error_and_a_readable_trace(torque, inerti
     assert 9.0 <= info["time_span_s"][1] <= 10.5
 
 
+def test_divergence_inside_a_block_of_unchecked_ticks_names_the_window_that_holds_it(tmp_path, monkeypatch):
+    """The plant is checked for a bad state once per block of ticks (runner.CHECK_EVERY_TICKS):
+    a torque too large for MuJoCo switched on at 13 s, inside the block that starts at 10 s
+    (ticks of 0.5 s, a trace sample every 10 ticks), is reported in a window that contains
+    13 s, and the trace stops at the last sample before it."""
+    from testbed.runner import run_scenario
+    from testbed.scenario import load_scenario
+
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its MUJOCO_LOG.TXT into the working directory
+    scenario = load_scenario("torque_free_skylab", [
+        "model.inertia_kg_m2=[0.001, 0.001, 0.001]", "reference=", "checks={}", "sim.trace_period_s=5",
+        "pipeline={law: {type: torque_profile, offset: [0, 0, 1.0e9], start_s: 13}, allocator: {type: ideal_torque}}"])
+    result = run_scenario(scenario, None, keep_data=True)
+    assert result.status == "diverged" and "BADQACC" in result.error
+    start = float(result.error.split("diverged at t = ")[1].split(" s")[0])
+    steps = int(result.error.split("within ")[1].split(" steps")[0])
+    assert start <= 13.0 < start + steps * scenario.sim.dt_s
+    assert start + steps * scenario.sim.dt_s - 13.0 <= 5.0 + 1e-9  # the window is one block long at most
+    assert result.trace["truth/omega"][0][-1] <= 13.0
+
+
 def test_list_names_every_scenario(capsys):
     assert main(["list"]) == 0
     listed = {line.split()[0] for line in capsys.readouterr().out.splitlines()}

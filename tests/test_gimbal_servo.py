@@ -143,3 +143,19 @@ def test_a_servo_faster_than_the_tick_is_refused_for_feedforward():
     with pytest.raises(InputError) as error:
         CmgPlant(build(params, 0.002), params, 0.05)
     assert error.value.field == "model.servo_natural_frequency_rad_s"
+
+
+@pytest.mark.parametrize("window", [slice(3, 11), slice(0, 8, 2)])
+def test_float_writer_writes_what_numpy_assignment_writes(window):
+    """The servo's command goes into MuJoCo's ctrl through `float_writer` (packed bytes where the
+    view is contiguous): the array afterwards equals one written by numpy's own assignment."""
+    import mujoco
+
+    from testbed.plant import float_writer
+
+    model = build(CmgRhombusParams(servo_model="feedforward", servo_natural_frequency_rad_s=5.0), 0.01)
+    data, expected = mujoco.MjData(model), mujoco.MjData(model)
+    values = [0.1 * i - 0.3 for i in range(len(range(model.nu)[window]))]
+    float_writer(data.ctrl[window])(*values)
+    expected.ctrl[window] = values
+    assert data.ctrl.tolist() == expected.ctrl.tolist() and data.ctrl[window].tolist() == values

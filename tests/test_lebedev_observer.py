@@ -204,7 +204,9 @@ def test_sampled_stages_on_paper_example():
 
     dt = 0.1
     scenario = load_scenario("lebedev_spinup_ideal", [f"sim.dt_s={dt}", f"sim.control_period_s={dt}",
-                                                      f"sim.trace_period_s={dt}"])
+                                                      f"sim.trace_period_s={dt}", "reference=",
+                                                      "pipeline.estimator.measurement_hold=zero_order",
+                                                      "pipeline.estimator.max_substep_s=0.05", "checks={}"])
     ctx = stage_context(scenario, np.diag(SKYLAB))
     estimator = build("estimator", *scenario.stages["estimator"], ctx)
     law = build("law", *scenario.stages["law"], ctx)

@@ -91,10 +91,18 @@ PINNED = {
         "rate_limit_violations": {"max": 0},
         "momentum_drift_rel": {"max": 1.0e-8},
     },
+    "lebedev_spinup_cmg_momentum": {
+        "spin_error_final_deg_s": {"max": 1.0e-3},
+        "estimation_error_final_deg_s": {"max": 1.0e-3},
+        "estimation_error_startup_deg_s": {"min": 0.01},
+        "rate_limit_violations": {"max": 0},
+        "momentum_drift_rel": {"max": 1.0e-8},
+    },
     "lebedev_spinup_ideal": {
         "spin_error_final_deg_s": {"max": 1.0e-3},
         "estimation_error_final_deg_s": {"max": 1.0e-4},
         "estimation_error_startup_deg_s": {"min": 0.01},
+        "max_deviation_from_continuous_deg_s": {"max": 0.01},
     },
     "planar_akor": {
         "akor_eta_rel_err": {"max": 2e-3},

@@ -144,17 +144,20 @@ def observer_gain(inertia, spin_rate, sensor_axis, poles):
     return ackermann_gain(A, sensor_axis, poles)
 
 
-def ackermann_gain(A, sensor_axis, poles):
+def ackermann_gain(A, sensor_axis, poles, desired=None):
     """l with eig(A - l C) = poles for any observable 3x3 A and C = p' (the T^-1 L construction).
 
     The same formulas as `observer_gain` (Lebedev 1976, text after eq. 4.7) with A general;
     raises InputError("sensor.axis", ...) when det T = -det W vanishes (pair unobservable).
+    `desired`: theta's coefficients np.poly(poles).real, when the caller places the same
+    (already checked) poles again and again.
     """
-    mu = check_observer_poles(poles)
+    if desired is None:
+        desired = np.poly(check_observer_poles(poles)).real
     A = np.asarray(A, dtype=float)
     c = np.asarray(sensor_axis, dtype=float)
     alpha = np.poly(A).real  # (1, alpha1, alpha2, alpha3)
-    beta = np.poly(mu).real  # (1, beta1, beta2, beta3)
+    beta = desired           # (1, beta1, beta2, beta3)
     At = A.T
     t1 = At @ At @ c + alpha[1] * (At @ c) + alpha[2] * c
     t2 = At @ c + alpha[1] * c
@@ -173,10 +176,17 @@ def gyrostat_error_matrix(inertia, spin_rate, momentum):
     A CMG cluster holding H that compensates w x H with the *estimate* w_hat leaves the body
     a torque (w_hat - w) x H = H x e (e = x - z) that eq. 4.6 does not model, so the error obeys
     e' = (A + I^-1 [H x] - l C) e + ... (our extension: the paper's body has external torques).
+    `momentum` may be one H (3,) or a stack (N, 3), giving (3, 3) or (N, 3, 3).
     """
     _, A = lebedev_matrices(inertia, spin_rate)
     h = np.asarray(momentum, dtype=float)
-    cross = np.array([[0.0, -h[2], h[1]], [h[2], 0.0, -h[0]], [-h[1], h[0], 0.0]])
+    if h.ndim == 1:  # one H (every control period with measured momentum): the quick way
+        cross = np.array([[0.0, -h[2], h[1]], [h[2], 0.0, -h[0]], [-h[1], h[0], 0.0]])
+        return A + cross / principal_moments("body.inertia", inertia)[:, None]
+    zero = np.zeros(h.shape[:-1])
+    cross = np.stack([np.stack([zero, -h[..., 2], h[..., 1]], -1),
+                      np.stack([h[..., 2], zero, -h[..., 0]], -1),
+                      np.stack([-h[..., 1], h[..., 0], zero], -1)], -2)
     return A + cross / principal_moments("body.inertia", inertia)[:, None]
 
 
@@ -192,8 +202,9 @@ def lebedev_torque(inertia, k, z):
 class LebedevObserver:
     """Discrete-time realisation of the continuous observers (3.1) and (4.6).
 
-    Between two control instants the sample y and the input u are held (zero-order
-    hold) and the continuous observer ODE is integrated with classical RK4 in equal
+    Between two samples the input u is held (zero-order hold), y is held too or
+    interpolated linearly to the newer sample (`y_end`), and the continuous observer ODE
+    is integrated with classical RK4 in equal
     substeps no longer than `max_substep` (RK4 rather than an exact ZOH matrix because
     eq. 4.6 contains the quadratic F(z); A - lC has |entries| ~ 40 1/s in the paper's
     example, so substeps of 0.05 s keep h*|A - lC| ~ 1, well inside RK4's region).
@@ -201,59 +212,110 @@ class LebedevObserver:
     Holding y over the period delays the innovation, and |l| is large (~40 1/s in the
     example), so the period must stay short. Measured on the section-6 example (RK4
     truth, t* = 150 s), max |w - (0,0,1)| deg/s at 700 s: continuous 7.6e-7; dt = 0.05 s
-    1.2e-6; 0.1 s 2.7e-6; 0.2 s 4.9e-5; 0.25 s 4.4e-4; dt = 0.5 s diverges.
+    1.2e-6; 0.1 s 2.7e-6; 0.2 s 4.9e-5; 0.25 s 4.4e-4; dt = 0.5 s diverges. The held y
+    costs a deviation from the continuous loop first order in the period (0.32 deg/s at
+    0.05 s); interpolated, 0.0078 deg/s (README "One gyro", bench/bench_lebedev_rates.py).
 
     State z estimates the deviation x = (wx, wy, wz - Omega); y is the raw gyro output
     p . w [rad/s]; the innovation uses y_dev = y - gamma Omega, since y = C x + gamma Omega.
     """
 
-    def __init__(self, inertia, spin_rate, sensor_axis, poles, max_substep=0.05, design_momentum=None):
+    def __init__(self, inertia, spin_rate, sensor_axis, poles, max_substep=0.05, design_momentum=None,
+                 measured_momentum=False):
         self.inertia = principal_moments("body.inertia", inertia)
         self.spin_rate = float(spin_rate)
         self.C = check_unit_vector(sensor_axis, "sensor.axis")
+        self.poles = check_observer_poles(poles)
+        self._desired = np.poly(self.poles).real   # theta(s), placed again every period with measured momentum
         self.l = observer_gain(self.inertia, self.spin_rate, self.C, poles)
         # Closed-loop gain: the paper's l, or l for A + I^-1 [H x] when the actuators hold H.
         self.l_closed = self.l if design_momentum is None else ackermann_gain(
             gyrostat_error_matrix(self.inertia, self.spin_rate, design_momentum), self.C, poles)
+        # measured_momentum: both gains follow the momentum H the actuators report (README
+        # "Non-zero total momentum"); without it H is ignored, as in the paper
+        self.measured_momentum = bool(measured_momentum)
         self.a, self.A = lebedev_matrices(self.inertia, self.spin_rate)
         if not max_substep > 0:
             raise InputError("observer.max_substep", f"must be > 0, got {max_substep}")
         self.max_substep = float(max_substep)
         self.z = np.zeros(3)
+        self._startup_cache: tuple = (None, (self.A, np.zeros(3), self.l))
+
+    def gain_for(self, momentum) -> np.ndarray:
+        """l placing eig(A + I^-1 [H x] - l C) at the observer's poles for the momentum H held
+        [N m s, body axes]; InputError("sensor.axis", ...) when that pair is unobservable."""
+        return ackermann_gain(gyrostat_error_matrix(self.inertia, self.spin_rate, momentum), self.C, self.poles,
+                              self._desired)
+
+    def closed_gain(self, momentum=None, z=None):
+        """The gain l_c of the closed-loop observer (eq. 4.6): fixed, or, with measured momentum,
+        re-placed for the momentum the actuators will hold at the wanted spin, H + I z [N m s]:
+        the H they hold now plus the estimated deviation x = z the law still has to remove
+        (total momentum I w + H is conserved, so at w = (0, 0, Omega) they hold H + I x). It is
+        the operating point of the final spin, whose transverse part turns with the body when
+        the total momentum is not along z (README "Non-zero total momentum")."""
+        if self.measured_momentum and momentum is not None:
+            return self.gain_for(np.asarray(momentum, float) + self.inertia * (self.z if z is None else z))
+        return self.l_closed
+
+    def startup_model(self, momentum=None):
+        """(A_s, d, l_s) of the linear start-up observer z' = A_s z + d + l_s (y_dev - C z).
+
+        The paper's (3.1): A, 0, l. With measured momentum the idle actuators hold H fixed in
+        the body, which then obeys I w' = -w x I w + H x w exactly; H x w = H x x + Omega H x e_z
+        is linear in x, so the start-up model gains A_s = A + I^-1 [H x] (gyrostat_error_matrix)
+        and the drift d = Omega I^-1 (H x e_z), with l_s placed for A_s (our extension).
+        """
+        if not self.measured_momentum or momentum is None:
+            return self.A, np.zeros(3), self.l
+        key = tuple(np.asarray(momentum, float))
+        if self._startup_cache[0] != key:  # H is constant while the actuators idle: place once
+            h = np.asarray(momentum, float)
+            drift = self.spin_rate * np.array([h[1], -h[0], 0.0]) / self.inertia
+            self._startup_cache = (key, (gyrostat_error_matrix(self.inertia, self.spin_rate, h), drift,
+                                         self.gain_for(h)))
+        return self._startup_cache[1]
 
     def reset(self, z0=None):
         """Set the estimate (default z = 0, as at the start of the start-up phase, eq. 3.1)."""
         self.z = np.zeros(3) if z0 is None else np.asarray(z0, dtype=float).copy()
 
-    def _rhs(self, z, y_dev, u, nonlinear):
-        dz = self.A @ z + (self.l_closed if nonlinear else self.l) * (y_dev - self.C @ z)
-        if nonlinear:
-            dz = dz + lebedev_nonlinearity(self.a, z) + u
-        return dz
-
-    def _advance(self, y, u, dt, nonlinear):
+    def _advance(self, rhs_of_y, y, dt, y_end=None):
         if not dt > 0:
             raise InputError("control.period", f"must be > 0, got {dt}")
         y_dev = float(y) - self.C[2] * self.spin_rate
         n = max(1, int(np.ceil(dt / self.max_substep - 1e-9)))
-        self.z = rk4_steps(lambda s, z: self._rhs(z, y_dev, u, nonlinear), self.z, dt, n)
+        if y_end is None:  # zero-order hold: y over the interval is the sample at its start
+            rhs = lambda s, z: rhs_of_y(z, y_dev)  # noqa: E731
+        else:              # first-order hold: y moves linearly to the sample at its end
+            slope = float(y_end) - float(y)
+            rhs = lambda s, z: rhs_of_y(z, y_dev + s * slope)  # noqa: E731
+        self.z = rk4_steps(rhs, self.z, dt, n)
         return self.z
 
-    def startup_step(self, y, dt):
+    def startup_step(self, y, dt, y_end=None, momentum=None):
         """Advance the start-up observer z' = A z + l (y_dev - C z) by dt (Lebedev 1976, eq. 3.1).
 
         No F(z) and no u: the body is uncontrolled and still far from the spin that F is
         expanded about, and with F(z) the estimate stalls (SEEDS §000: ~6 deg/s error
-        against ~0.2 deg/s without it).
+        against ~0.2 deg/s without it). `y` is the sample at the start of the interval;
+        with `y_end` (the sample at its end) y is interpolated linearly between them.
+        With measured momentum, A, l and a drift follow the momentum H held (`startup_model`).
         """
-        return self._advance(y, np.zeros(3), dt, nonlinear=False)
+        matrix, drift, gain = self.startup_model(momentum)
+        C = self.C
+        return self._advance(lambda z, y_dev: matrix @ z + drift + gain * (y_dev - C @ z), y, dt, y_end)
 
-    def step(self, y, u, dt):
+    def step(self, y, u, dt, y_end=None, momentum=None):
         """Advance z' = A z + l (y_dev - C z) + F(z) + u by dt (Lebedev 1976, eq. 4.6).
 
-        u = M / I [rad/s^2] is the input applied over this period.
+        u = M / I [rad/s^2] is the input applied over this period; `y`, `y_end` as in
+        `startup_step`; l is `closed_gain(momentum)`, held over the period.
         """
-        return self._advance(y, np.asarray(u, dtype=float), dt, nonlinear=True)
+        u = np.asarray(u, dtype=float)
+        gain, A, C, a = self.closed_gain(momentum), self.A, self.C, self.a
+        return self._advance(lambda z, y_dev: A @ z + gain * (y_dev - C @ z) + lebedev_nonlinearity(a, z) + u,
+                             y, dt, y_end)
 
     def omega_estimate(self):
         """Estimated body rate w = z + (0, 0, Omega) [rad/s] (inverse of eq. 4.1)."""

@@ -12,10 +12,12 @@
 Design data flow: the law owns the task (Omega, gains) and publishes Omega; the estimator
 reads it, the sensing axis p (C = p', eq. 4.3) the single-axis sensor publishes, and the
 key under which the allocator reports the torque it delivered (all through
-`StageContext.stages`), and checks observability (eq. 4.4-4.5) before the run. Causality: at tick k the observer has integrated
-over [t_(k-1), t_k] with the gyro sample y_(k-1) and the input u_(k-1) = M / I that were held
-over that interval (u from the torque the allocator reports delivered), so z(t_k) uses no
-information from t_k or later.
+`StageContext.stages`), and checks observability (eq. 4.4-4.5) before the run. Causality: at sample k the observer has
+integrated over [t_(k-1), t_k] with the input u = M / I that was held over that interval (u
+from the torque the allocator reports delivered) and the gyro held at y_(k-1)
+(`measurement_hold: zero_order`) or interpolated from y_(k-1) to y_k (`linear`), so z(t_k)
+uses no information from after t_k. The samples come every `sim.estimator_period_s`, which
+may be shorter than the law's period.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from typing import Literal
 import numpy as np
 
 from testbed.errors import InputError
+from testbed.observers.lebedev_momentum import check_momentum_observable
 from testbed.observers.lebedev_observer import LebedevObserver, check_gains, check_observer_poles, lebedev_torque
 from testbed.pipeline import require_free_body, stage
 from testbed.schema import join, param
@@ -121,13 +124,22 @@ class LebedevObserverParams:
     poles_imag_per_s: list[float] = param([0.0, 0.0, 0.0], length=3, doc="imaginary parts (conjugate pairs)")
     startup_s: float = param(ge=0, doc="open-loop start-up phase (section 3) before control begins")
     max_substep_s: float = param(0.05, ge=1e-4, doc="RK4 substep of the observer ODE within a control period")
+    measurement_hold: Literal["zero_order", "linear"] = param("zero_order", doc=(
+        "y between two samples: the older held (zero_order) or interpolated linearly to the newer "
+        "(linear; causal, both samples are in hand when the interval is integrated)"))
     design_momentum_nms: list[float] | None = param(None, length=3, doc=(
         "internal (CMG) momentum H at the operating point, body axes: the closed-loop gain then places "
         "eig(A + I^-1 [H x] - l C); none: the paper's rigid body"))
+    momentum_gain: Literal["fixed", "measured"] = param("fixed", doc=(
+        "measured: the gains follow the momentum H the allocator reports (re-placed every period, "
+        "the start-up model includes H; README 'Non-zero total momentum'); fixed: design_momentum_nms or none"))
 
     def validate(self, path: str) -> None:
         with scenario_fields({"observer.poles": join(path, "poles_per_s")}):
             self.poles = check_observer_poles(np.array(self.poles_per_s) + 1j * np.array(self.poles_imag_per_s))
+        if self.momentum_gain == "measured" and self.design_momentum_nms is not None:
+            raise InputError(join(path, "design_momentum_nms"), "does not apply with momentum_gain measured "
+                                                                "(the gain follows the measured H)")
 
 
 @stage("estimator", "lebedev", LebedevObserverParams)
@@ -149,29 +161,57 @@ class LebedevEstimator:
             raise InputError("pipeline.allocator.type", f"the lebedev estimator needs u = M / I: use ideal_torque "
                              f"or a steering law that reports torque_delivered, got {allocator.type!r}")
         self.torque_key = allocator.design["delivered_torque"]
+        self.momentum_key = allocator.design.get("internal_momentum") if params.momentum_gain == "measured" else None
         self.inertia = principal_axes_moments(ctx.inertia)
         names = {"sensor.axis": "pipeline.sensor.axis", "body.inertia": "model.inertia_kg_m2",
                  "control.spin_rate": law.design["spin_rate_field"],
                  "observer.poles": "pipeline.estimator.poles_per_s",
                  "observer.max_substep": "pipeline.estimator.max_substep_s"}
         with scenario_fields(names):
-            self.observer = LebedevObserver(self.inertia, law.design["spin_rate"], sensor.design["sensing_axis"],
-                                            params.poles,
-                                            params.max_substep_s, params.design_momentum_nms)
+            self.observer = self.build_observer(params, ctx.inertia, law.design["spin_rate"],
+                                                sensor.design["sensing_axis"])
+        if self.momentum_key is not None:
+            self._check_momentum(ctx)
         self.startup = params.startup_s
+        self.linear_hold = params.measurement_hold == "linear"
         self.l = self.observer.l
         self._t_prev: float | None = None
         self._y_prev = 0.0
+
+    def _check_momentum(self, ctx) -> None:
+        """Refuse, before the run, momentum one gyro cannot work with: the start-up pair at the
+        H(0) the idle cluster holds, and any end state of the spin with the total momentum L
+        (testbed.observers.lebedev_momentum)."""
+        held = np.asarray(ctx.internal_momentum, float)
+        obs = self.observer
+        try:
+            obs.startup_model(held)
+        except InputError as exc:
+            raise InputError("model", f"the momentum the actuators hold at t = 0, H = "
+                                      f"{np.array2string(held, precision=4)} N m s: {exc.reason}") from None
+        total = np.asarray(ctx.inertia, float) @ np.asarray(ctx.initial.omega, float) + held
+        check_momentum_observable(obs.inertia, obs.spin_rate, obs.C, total, "initial")
+
+    @staticmethod
+    def build_observer(params: LebedevObserverParams, inertia, spin_rate: float, sensing_axis) -> LebedevObserver:
+        """The observer of eq. 3.1 and 4.6 these parameters describe (also built by the
+        continuous-time reference, testbed/stages/lebedev_reference.py)."""
+        return LebedevObserver(principal_axes_moments(inertia), spin_rate, sensing_axis, params.poles,
+                               params.max_substep_s, params.design_momentum_nms,
+                               measured_momentum=params.momentum_gain == "measured")
 
     def estimate(self, t, measurement, command):
         y = float(np.asarray(measurement["y"])[0])
         if self._t_prev is not None:
             h = t - self._t_prev
+            y_end = y if self.linear_hold else None
+            # the momentum the cluster held over the interval (measured_momentum only)
+            held = command.get(self.momentum_key) if self.momentum_key is not None else None
             if self._t_prev < self.startup:
-                self.observer.startup_step(self._y_prev, h)      # eq. 3.1, body uncontrolled
+                self.observer.startup_step(self._y_prev, h, y_end, held)      # eq. 3.1, body uncontrolled
             else:
                 torque = np.asarray(command.get(self.torque_key, np.zeros(3)), float)
-                self.observer.step(self._y_prev, torque / self.inertia, h)  # eq. 4.6, u = M / I
+                self.observer.step(self._y_prev, torque / self.inertia, h, y_end, held)  # eq. 4.6, u = M / I
         self._t_prev, self._y_prev = t, y
         obs = self.observer
         innovation = y - obs.C[2] * obs.spin_rate - obs.C @ obs.z

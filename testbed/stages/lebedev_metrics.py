@@ -106,3 +106,15 @@ def estimation_error_at_closing_deg_s(run) -> float:
 def estimation_error_final_deg_s(run) -> float:
     """max |w_hat - w| over the last 10 % of the run [deg/s]."""
     return float(np.nanmax(_estimation_error(run)[_tail(run, FINAL_FRACTION)]))
+
+
+def _has_continuous_reference(scenario) -> bool:
+    return scenario.reference is not None and scenario.reference[0] == "lebedev_continuous"
+
+
+@metric("max_deviation_from_continuous_deg_s", applies=_has_continuous_reference)
+def max_deviation_from_continuous_deg_s(run) -> float:
+    """max over trace samples of |w - w_c|, w_c the continuous-time closed loop (reference lebedev_continuous) [deg/s]."""
+    if run.reference_error:
+        raise ValueError(run.reference_error)
+    return float(np.degrees(np.max(np.linalg.norm(run.recorder["reference/omega_error"], axis=1))))

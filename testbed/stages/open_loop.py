@@ -64,9 +64,16 @@ class SinusoidProfile:
                                np.deg2rad(self.phase_deg).tolist()))
 
     def __call__(self, t: float) -> np.ndarray:
+        return np.array(self.values(t))
+
+    def values(self, t: float) -> list[float]:
+        """x(t) as a list of plain floats (for a command handed on every control tick)."""
         if t < self.start_s or (self.stop_s is not None and t >= self.stop_s):
-            return np.zeros(len(self._terms))
-        return np.array([offset + amplitude * sin(omega * t + phase) for offset, amplitude, omega, phase in self._terms])
+            return [0.0] * len(self._terms)
+        values = []
+        for offset, amplitude, omega, phase in self._terms:  # a loop: cheaper than a comprehension
+            values.append(offset + amplitude * sin(omega * t + phase))
+        return values
 
 
 @dataclass

@@ -20,7 +20,7 @@ from testbed.stages.white_noise import WhiteNoise
 @dataclass(kw_only=True)
 class RateGyroParams:
     axis: list[float] = param(length=3, doc="unit sensing axis p, body axes")
-    sample_period_s: float | None = param(None, gt=0, doc="default: the control period")
+    sample_period_s: float | None = param(None, gt=0, doc="default: the estimator period (sim.estimator_period_s)")
     noise_sigma_rad_s: float = param(0.0, ge=0, doc="white noise, standard deviation per sample")
     bias_rad_s: float = param(0.0, doc="constant bias")
     quantisation_rad_s: float = param(0.0, ge=0, doc="output step (0: none)")
@@ -38,10 +38,13 @@ class RateGyro:
 
     def __init__(self, params: RateGyroParams, ctx):
         self.axis = np.asarray(params.axis, float)
-        period = params.sample_period_s or ctx.control_period
+        called = ctx.sample_period or ctx.control_period     # how often the pipeline calls the sensor
+        period = params.sample_period_s or called
         field = "pipeline.sensor.sample_period_s"
         self.every = whole_multiple(period, ctx.dt, field, "the physics step sim.dt_s")
-        self.every_tick = whole_multiple(period, ctx.control_period, field, "sim.control_period_s")
+        multirate = called != ctx.control_period
+        self.every_tick = whole_multiple(period, called, field,
+                                         "sim.estimator_period_s" if multirate else "sim.control_period_s")
         self.params = params
         self.noise = WhiteNoise(params.seed)
         self.tick = 0

@@ -5,7 +5,8 @@ h J(b) b' = H' (eq. 17); J, h and H are read from the compiled model (ClusterGeo
 the measured gimbal angles and rotor speeds. Each law of testbed.steering is a stage type:
 `pinv`, `sr`, `gsr`, `minimax_lp`, `minimax`, `minimax_avoid`. When the best achievable
 max |b'_i| exceeds b'max the demand is scaled down, keeping its direction; `scale` records the
-factor, `torque_delivered` the torque the command produces on the bus and `status` the law's
+factor, `torque_delivered` the torque the command produces on the bus, `momentum` the H it was
+computed with (what the encoders and tachometers say the cluster holds) and `status` the law's
 status flags as the sum of their codes (testbed.steering.result.STATUS_CODES: 1 rate_limited,
 2 rank_deficient, 4 lp_failed, 8 avoidance_limited; 0 ok). What a law needs at each step beyond
 J, h and H' (testbed.steering.STEP_INPUTS) comes from the clock and the cluster description:
@@ -94,7 +95,8 @@ class SteeringAllocator:
 
     @classmethod
     def design(cls, params) -> dict:
-        return {"delivered_torque": "torque_delivered"}  # the command key of the torque produced
+        # the command keys of the torque produced and of the momentum H the cluster holds
+        return {"delivered_torque": "torque_delivered", "internal_momentum": "momentum"}
 
     def __init__(self, params: SteeringParams, ctx):
         if not hasattr(ctx.description, "unit_jacobian"):
@@ -188,6 +190,7 @@ class SteeringAllocator:
             self.setpoint = self.setpoint + self.period * result.beta_rate
         return {"gimbal_rates": result.beta_rate,
                 "torque_delivered": -result.hdot_delivered - gyroscopic,
+                "momentum": momentum,
                 "scale": np.array([result.scale]),
                 "singularity": np.array([result.singularity_measure]),
                 "rank": np.array([float(result.rank)]),

@@ -70,6 +70,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from testbed.errors import InputError
+from testbed.plant import float_writer
 
 # The observer divides the residual rate by Gamma_1, which shrinks as exp(-w_n Tc): past
 # w_n Tc = 5 the PD alone settles within the tick and the division only amplifies round-off.
@@ -95,7 +96,7 @@ class IntVelocityServo:
 
     def __init__(self, bus, data, rate_limit: float | None = None):
         self._rates = data.ctrl[bus.gimbal_ctrl]  # views into MuJoCo's arrays, kept
-        self._ctrl = self._rates  # what apply writes
+        self._write = float_writer(self._rates)  # what apply writes
         self.rate_limit = rate_limit
         self._applied_at = None
         IntVelocityServo.start(self, data)  # not a subclass's: that one needs mj_forward first
@@ -107,7 +108,7 @@ class IntVelocityServo:
     def apply(self, data, rates) -> None:
         """Take this tick's command (None: hold the last one)."""
         if self._take(data, rates):
-            self._ctrl[:] = self._current  # MuJoCo clips to the rate limit (ctrlrange)
+            self._write(*self._current)  # MuJoCo clips to the rate limit (ctrlrange)
 
     def _take(self, data, rates) -> bool:
         """Remember this tick's command and the one held until now; False: no new command."""
@@ -115,7 +116,10 @@ class IntVelocityServo:
         self._applied_at = data.time
         if rates is None:
             return False
-        self._current = rates.tolist() if type(rates) is np.ndarray else [float(r) for r in rates]
+        if type(rates) is list:  # a built-in allocator's plain floats
+            self._current = rates.copy()
+        else:
+            self._current = rates.tolist() if type(rates) is np.ndarray else [float(r) for r in rates]
         return True
 
     def held_command(self, data) -> np.ndarray:
@@ -143,7 +147,7 @@ class FeedForwardServo(IntVelocityServo):
                              "period, use servo_model: intvelocity")
         super().__init__(bus, data, rate_limit)
         # the servos' rate commands and the motors' torques, side by side in MuJoCo's ctrl
-        self._ctrl = data.ctrl[bus.gimbal_servo_ctrl]
+        self._write = float_writer(data.ctrl[bus.gimbal_servo_ctrl])
         self._rate = data.qvel[bus.gimbal_qvel]
         self._angle = data.qpos[bus.gimbal_qpos]
         self._setpoint = data.act[bus.gimbal_act]
@@ -160,12 +164,15 @@ class FeedForwardServo(IntVelocityServo):
         inverse = np.zeros((self.model.nv, self.model.nv))
         mujoco.mj_solveM(self.model, data, inverse, np.eye(self.model.nv))
         inertia = 1.0 / np.diag(inverse)[self._dofs]
-        # per gimbal: (J / Gamma_1, kv + J q, J p, J q), so that
-        # u = kv c - J (p theta + q (b' - c)) - delta^ = (kv + J q) c - J p theta - J q b' - delta^
-        self._gains = list(zip((inertia / self.gamma).tolist(), (self._kv + inertia * self.q).tolist(),
-                               (inertia * self.p).tolist(), (inertia * self.q).tolist()))
-        # per gimbal: (delta over the last tick, delta^ over the coming one)
-        self._observer = [(d, d) for d in (-self._bias).tolist()]
+        # per gimbal, so that u = kv c - J (p theta + q (b' - c)) - delta^
+        #                       = (kv + J q) c - J p theta - J q b' - delta^
+        self._observer_gain = (inertia / self.gamma).tolist()  # J / Gamma_1
+        self._kv_q = (self._kv + inertia * self.q).tolist()     # kv + J q
+        self._jp = (inertia * self.p).tolist()                  # J p
+        self._jq = (inertia * self.q).tolist()                  # J q
+        # the observer: delta over the last tick, and delta^ over the coming one
+        self._delta = self._predicted = (-self._bias).tolist()
+        self._gimbals = range(len(self._delta))
         self._current = self._previous = self._rate.tolist()  # no rate error before t = 0
 
     def apply(self, data, rates) -> None:
@@ -177,22 +184,24 @@ class FeedForwardServo(IntVelocityServo):
             command, followed = self._current, self._previous
         else:
             command, followed = self._clipped(self._current), self._clipped(self._previous)
-        observer, torque = [], []
-        for rate, angle, setpoint, c, c_last, (last, predicted), (gain, kv_q, jp, jq) in zip(
-                self._rate.tolist(), self._angle.tolist(), self._setpoint.tolist(), command, followed,
-                self._observer, self._gains):
-            delta = predicted + gain * (rate - c_last)  # the disturbance the last tick met
-            coming = 2.0 * delta - last  # extrapolated over this tick
-            observer.append((delta, coming))
-            torque.append(kv_q * c - jp * (angle - setpoint) - jq * rate - coming)
+        rate, angle, setpoint = self._rate.tolist(), self._angle.tolist(), self._setpoint.tolist()
+        last, predicted = self._delta, self._predicted
+        gain, kv_q, jp, jq = self._observer_gain, self._kv_q, self._jp, self._jq
+        delta, coming, torque = [], [], []
+        for i in self._gimbals:  # by index: cheaper than zipping eleven lists or three comprehensions
+            delta_i = predicted[i] + gain[i] * (rate[i] - followed[i])  # the disturbance the last tick met
+            coming_i = 2.0 * delta_i - last[i]  # extrapolated over this tick
+            delta.append(delta_i)
+            coming.append(coming_i)
+            torque.append(kv_q[i] * command[i] - jp[i] * (angle[i] - setpoint[i]) - jq[i] * rate[i] - coming_i)
         if self.torque_limit is not None:
             applied = self._limited(torque)
             # what the motor leaves out counts as disturbance it did not compensate, so the
             # next tick's residual is read against the torque it really gave
-            observer = [(d, coming + u - a) for (d, coming), u, a in zip(observer, torque, applied)]
+            coming = [d_coming + u - a for d_coming, u, a in zip(coming, torque, applied)]
             torque = applied
-        self._observer = observer
-        self._ctrl[:] = self._current + torque  # MuJoCo clips the rates to the limit (ctrlrange)
+        self._delta, self._predicted = delta, coming
+        self._write(*self._current, *torque)  # MuJoCo clips the rates to the limit (ctrlrange)
 
     def _limited(self, torques: list) -> list:
         limit = self.torque_limit

@@ -164,7 +164,8 @@ class CmgPlant(Plant):
                 "rotor_rate": self.bus.rotor_rates(self.data)}
 
     def apply(self, command: dict[str, np.ndarray]) -> None:
-        super().apply(command)
+        if "body_torque" in command:  # the base class's one actuator, asked for only when commanded
+            super().apply(command)
         self.servo.apply(self.data, command.get("gimbal_rates"))
 
     def internal_momentum_body(self) -> np.ndarray:

@@ -45,4 +45,4 @@ class GimbalRateProfile:
         self.profile = params
 
     def allocate(self, t, demand, estimate, actuators):
-        return {"gimbal_rates": self.profile(t)}
+        return {"gimbal_rates": self.profile.values(t)}  # plain floats: the servo takes them as they are
