@@ -36,7 +36,7 @@ from testbed.scenario import apply_override
 from testbed.shipped_files import SCENARIO_DIR
 from testbed.steering import STEERING_LAWS
 from testbed.sweep import Case
-from testbed.sweep_runner import run_cases, write_csv
+from testbed.sweep_runner import run_cases
 
 BASE = "reorient_near_singular"
 SEED = 14
@@ -92,13 +92,29 @@ def study_cases(slew_indices, laws: list[str], with_limits: bool = False, overri
             if with_limits:
                 data["pipeline"]["allocator"] |= limits()
             data["sim"]["duration_s"] = slew["sim_s"]
-            cases.append(Case(i * len(laws) + j, {"slew": i, "law": law}, data, f"{BASE} (study slew {i})"))
+            # values are scenario paths (the engine reads each back from the built run); the
+            # study's own labels ride along as derived cells
+            cases.append(Case(i * len(laws) + j, {"pipeline.allocator.type": law}, data, f"{BASE} (study slew {i})",
+                              derived={"slew": i, "law": law}))
     return cases
 
 
 def run_study(cases: list[Case], workers: int, progress=None) -> list[dict]:
     """The study's one call to the sweep engine: a row per case, in case order."""
     return run_cases(cases, workers, progress=progress)
+
+
+def write_csv(path: Path, rows: list[dict], first: list[str]) -> Path:
+    """One line per run, the `first` columns first; floats written with repr (round-trip exact),
+    missing cells empty."""
+    names = list(first) + sorted({k for row in rows for k in row} - set(first))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=names, restval="")
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: repr(v) if isinstance(v, float) else v for k, v in row.items()})
+    return path
 
 
 def read_rows(path: Path) -> list[dict]:
@@ -174,7 +190,7 @@ def main() -> None:
         with progress_bar("steering study", len(todo) * len(laws), "runs") as bar:
             for start in range(0, len(todo), args.batch):
                 cases = [c for c in study_cases(todo[start:start + args.batch], laws, args.limits, args.set)
-                         if (c.values["slew"], c.values["law"]) not in done]
+                         if (c.derived["slew"], c.derived["law"]) not in done]
                 offset = bar.n
                 rows += run_study(cases, args.workers, lambda n, total, failed: advance_to(bar, offset + n))
                 write_csv(args.csv, sorted(rows, key=lambda r: (r["slew"], laws.index(r["law"]))), ["slew", "law"])

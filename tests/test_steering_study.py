@@ -61,13 +61,14 @@ def test_study_cases_fly_the_slews_from_the_zero_momentum_set_with_every_law():
     laws = list(STEERING_LAWS)
     slews = module.slews(3)
     cases = module.study_cases([2], laws, with_limits=True)
-    assert [c.values for c in cases] == [{"slew": 2, "law": law} for law in laws]
+    assert [c.derived for c in cases] == [{"slew": 2, "law": law} for law in laws]
+    assert [c.values for c in cases] == [{"pipeline.allocator.type": law} for law in laws]
     for case in cases:
         scenario = parse(case.data, case.source)   # valid as a scenario, limits included
         law, allocator = case.data["pipeline"]["law"], case.data["pipeline"]["allocator"]
         assert (law["axis"], law["angle_deg"], law["duration_s"]) == (
             slews[2]["axis"], slews[2]["angle_deg"], slews[2]["duration_s"])
-        assert allocator["type"] == case.values["law"] and allocator["gimbal_acceleration_max_deg_s2"] == 200
+        assert allocator["type"] == case.derived["law"] and allocator["gimbal_acceleration_max_deg_s2"] == 200
         assert case.data["sim"]["duration_s"] == slews[2]["sim_s"] and not case.data["checks"]
         assert scenario is not None
     model = cases[0].data["model"]
