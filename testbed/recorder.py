@@ -143,10 +143,6 @@ class Recorder:
         """The whole kept history of `key` (a row per flushed sample, NaN where not recorded)."""
         return self._kept[key].first(self._first)
 
-    def add_series(self, key: str, values: np.ndarray) -> None:
-        """Attach a signal computed after the run (a reference solution, an error), a row per sample."""
-        self.keep_chunk(Chunk(0, self.time, {key: np.asarray(values, float)}))
-
 
 class Trace(Mapping):
     """A run's signals as numpy arrays: `trace["truth/omega"] -> (t, values)`, t (N,) [s] and

@@ -465,7 +465,7 @@ def read_rrd(path: Path) -> dict:
 
 
 def read_signals(path: Path) -> Trace:
-    """Every recorded signal of an `.rrd` written by `write_rrd`, as a `Trace` (times to the
+    """Every recorded signal of an `.rrd` written by `TraceWriter`, as a `Trace` (times to the
     nanosecond the file stores)."""
     from rerun.chunk import RrdReader
 
