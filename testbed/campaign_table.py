@@ -18,11 +18,10 @@ from __future__ import annotations
 import csv
 import hashlib
 import json
-import os
-import tempfile
 import time
 from pathlib import Path
 
+from testbed.atomic_file import atomic_file, write_atomically
 from testbed.errors import InputError
 
 PARQUET_EVERY_S = 5.0
@@ -141,7 +140,7 @@ class CampaignTable:
         return [self.rows[k] for k in sorted(self.rows)]
 
     def _rewrite_csv(self) -> None:
-        with _atomic(self.csv_path) as handle:
+        with atomic_file(self.csv_path) as handle:
             writer = csv.DictWriter(handle, fieldnames=list(self.columns), restval="", extrasaction="ignore")
             writer.writeheader()
             for key in sorted(self.rows):
@@ -156,7 +155,7 @@ class CampaignTable:
         schema = pa.schema([(name, types[kind]) for name, kind in self.columns.items()])
         rows = [{name: _cell_for(row.get(name), kind) for name, kind in self.columns.items()}
                 for _, row in sorted(self.rows.items())]
-        with _atomic(self.parquet_path, binary=True) as handle:
+        with atomic_file(self.parquet_path, binary=True) as handle:
             pq.write_table(pa.Table.from_pylist(rows, schema=schema), handle)
         self._parquet_at = time.monotonic()
         self._parquet_cost = self._parquet_at - start
@@ -196,36 +195,3 @@ def _cell_for(value, kind: str):
 
 def _csv_cells(row: dict) -> dict:
     return {k: repr(v) if isinstance(v, float) else v for k, v in row.items()}
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-def write_atomically(path: Path, text: str) -> None:
-    """`text` into `path`, through a temporary file renamed onto it (never half a file)."""
-    with _atomic(path) as handle:
-        handle.write(text)
-
-
-class _atomic:
-    """A file written under a temporary name beside `path` and renamed onto it when complete."""
-
-    def __init__(self, path: Path, binary: bool = False):
-        self.path, self.binary = Path(path), binary
-
-    def __enter__(self):
-        fd, self.partial = tempfile.mkstemp(dir=self.path.parent, prefix=f".{self.path.name}.", suffix=".partial")
-        self.handle = os.fdopen(fd, "wb" if self.binary else "w", **({} if self.binary else {"newline": ""}))
-        return self.handle
-
-    def __exit__(self, kind, value, traceback):
-        self.handle.close()
-        if kind is None:
-            os.chmod(self.partial, 0o666 & ~_umask())  # what open() would have given (mkstemp gives 0o600)
-            os.replace(self.partial, self.path)
-        else:
-            Path(self.partial).unlink(missing_ok=True)
-        return False

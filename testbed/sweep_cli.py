@@ -131,7 +131,7 @@ def summarise(name: str, data: dict, rows: list[dict], cases, out: Path, args) -
     a choice gets its own pass rate."""
     from testbed.campaign_plots import write_summary_rrd
     from testbed.campaign_stats import report, rerun_command, summary
-    from testbed.campaign_table import write_atomically
+    from testbed.atomic_file import write_atomically
     from testbed.sweep_runner import flat
     from testbed.sweep_spec import load_spec
 

@@ -31,6 +31,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from testbed.atomic_file import partial_beside, publish
 from testbed.errors import InputError, quoted
 from testbed.recorder import Chunk, Trace
 from testbed.scene import hinge_poses
@@ -235,7 +236,7 @@ def recording_to(path, application: str = APP_ID, live: list | None = None):
         if path is not None:
             path = Path(path)
             path.parent.mkdir(parents=True, exist_ok=True)
-            handle, partial = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".partial")
+            handle, partial = partial_beside(path)
             os.close(handle)
             sinks.append(rr.FileSink(partial))
         rec.set_sinks(*sinks)  # before logging, so nothing is buffered for a viewer
@@ -243,20 +244,13 @@ def recording_to(path, application: str = APP_ID, live: list | None = None):
         rec.flush()
         rec.disconnect()
         if partial is not None:
-            os.chmod(partial, 0o666 & ~_umask())  # mkstemp made it private; a trace is an ordinary file
-            os.replace(partial, path)
+            publish(partial, path)
     except BaseException:
         if rec is not None:
             rec.disconnect()
         if partial is not None:
             Path(partial).unlink(missing_ok=True)
         raise
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
 
 
 def file_stem(name: str) -> str:

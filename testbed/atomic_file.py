@@ -1,0 +1,52 @@
+"""Files that appear whole or not at all: written under a temporary name beside their path and
+renamed onto it when complete (README "Exit status": nothing half-written is left as a result).
+
+The temporary name is `.<name>.<random>.partial`, unique per writer, so two writers of one
+path each leave a whole file; `publish` gives it the permissions `open()` would have given
+(mkstemp makes it private) and renames it."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+
+def partial_beside(path: Path) -> tuple[int, str]:
+    """(open descriptor, name) of a new unique temporary file in `path`'s folder."""
+    return tempfile.mkstemp(dir=Path(path).parent, prefix=f".{Path(path).name}.", suffix=".partial")
+
+
+def publish(partial: str, path: Path) -> None:
+    """Rename the finished `partial` onto `path` with an ordinary file's permissions (0o666 less the umask)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    os.chmod(partial, 0o666 & ~mask)
+    os.replace(partial, path)
+
+
+class atomic_file:
+    """`with atomic_file(path) as handle:` a file written under a temporary name beside `path`,
+    renamed onto it when the block ends normally and removed when it raises."""
+
+    def __init__(self, path: Path, binary: bool = False):
+        self.path, self.binary = Path(path), binary
+
+    def __enter__(self):
+        fd, self.partial = partial_beside(self.path)
+        self.handle = os.fdopen(fd, "wb" if self.binary else "w", **({} if self.binary else {"newline": ""}))
+        return self.handle
+
+    def __exit__(self, kind, value, traceback):
+        self.handle.close()
+        if kind is None:
+            publish(self.partial, self.path)
+        else:
+            Path(self.partial).unlink(missing_ok=True)
+        return False
+
+
+def write_atomically(path: Path, text: str) -> None:
+    """`text` into `path`, through a temporary file renamed onto it (never half a file)."""
+    with atomic_file(path) as handle:
+        handle.write(text)
