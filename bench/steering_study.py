@@ -11,7 +11,7 @@ a singular set (min sqrt(det JJ')), the peak gimbal rate, the torque error, the 
 error, and every limit violation. `--limits` adds a 200 deg/s^2 acceleration limit and stops
 at +-150 deg about each starting angle.
 
-    .venv/bin/python bench/steering_study.py [--runs 200] [--workers 2] [--limits] [--laws pinv,...]
+    .venv/bin/python bench/steering_study.py [--runs 200] [--workers 2] [--seed 14] [--limits] [--laws pinv,...]
                                               [--set KEY.PATH=VALUE ...]   (e.g. another inertia)
                                               [--csv runs/steering_study.csv] [--table-only]
 
@@ -70,11 +70,12 @@ def limits() -> dict:
             "gimbal_angle_limits_deg": [[a - TRAVEL_DEG, a + TRAVEL_DEG] for a in START_ANGLES_DEG]}
 
 
-def study_cases(slew_indices, laws: list[str], with_limits: bool = False, overrides=()) -> list[Case]:
+def study_cases(slew_indices, laws: list[str], with_limits: bool = False, overrides=(), seed: int = SEED) -> list[Case]:
     """One Case per (slew, law) on reorient_near_singular for the slews numbered `slew_indices`
-    (an int n: the first n), ready for run_study; `overrides` ("key.path=value") apply first."""
+    (an int n: the first n) of `slews(..., seed)`, ready for run_study; `overrides`
+    ("key.path=value") apply first."""
     indices = range(slew_indices) if isinstance(slew_indices, int) else list(slew_indices)
-    every = slews(max(indices, default=-1) + 1)
+    every = slews(max(indices, default=-1) + 1, seed)
     base = yaml.safe_load((SCENARIO_DIR / f"{BASE}.yaml").read_text())
     for override in overrides:
         apply_override(base, override)
@@ -168,6 +169,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=200, help="slews (each flown by every law)")
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--seed", type=int, default=SEED, help="of the random slews (the README's table: 14)")
     parser.add_argument("--limits", action="store_true", help="add the acceleration limit and the stops")
     parser.add_argument("--laws", default=",".join(STEERING_LAWS))
     parser.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE")
@@ -178,7 +180,7 @@ def main() -> None:
     laws = args.laws.split(",")
     rows = read_rows(args.csv) if args.csv.exists() else []
     if not args.table_only:
-        options = {"seed": SEED, "limits": args.limits, "set": args.set}
+        options = {"seed": args.seed, "limits": args.limits, "set": args.set}
         sidecar = args.csv.with_suffix(".options.json")
         if rows and (not sidecar.exists() or json.loads(sidecar.read_text()) != options):
             parser.error(f"{args.csv} holds runs made with other options than {options}: give another --csv")
@@ -189,7 +191,7 @@ def main() -> None:
         todo = [i for i in range(args.runs) if any((i, law) not in done for law in laws)]
         with progress_bar("steering study", len(todo) * len(laws), "runs") as bar:
             for start in range(0, len(todo), args.batch):
-                cases = [c for c in study_cases(todo[start:start + args.batch], laws, args.limits, args.set)
+                cases = [c for c in study_cases(todo[start:start + args.batch], laws, args.limits, args.set, args.seed)
                          if (c.derived["slew"], c.derived["law"]) not in done]
                 offset = bar.n
                 rows += run_study(cases, args.workers, lambda n, total, failed: advance_to(bar, offset + n))

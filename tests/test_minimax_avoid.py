@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy.linalg import null_space
 from scipy.optimize import linprog
 
 from testbed.errors import InputError
@@ -172,3 +173,132 @@ def test_bad_input_names_the_field(options, field):
     with pytest.raises(InputError) as err:
         minimax_avoid_steering(J, 1.0, [1.0, 0.0, 0.0], 1.0, **options)
     assert err.value.field == field
+
+
+# ---- the pull back to the start's zero-momentum family (module doc, eq. 4-5) -------------------
+
+START = np.radians([45.0, -45.0, -45.0, 45.0])  # the rhombus's non-singular zero-momentum set
+ALPHA = math.radians(54.7356)
+
+
+def preferred(beta, start=START, alpha=ALPHA, **options):
+    """The step inputs of the preference at gimbal angles beta for a run that started at `start`."""
+    return {"gimbal_angle": beta, "preferred_gimbal_angles": start, "preferred_jacobian": rhombus_jacobian(start, alpha),
+            "column_derivative": rhombus_column_derivative(beta, alpha)} | options
+
+
+def expected_pull(beta, start=START, alpha=ALPHA):
+    """-(p - (p . v0) v0) projected onto ker J(beta), p = sin(beta - beta0): eq. (4) with scipy's
+    null spaces (v0 of J(beta0), v4 of J(beta)) instead of the law's SVD."""
+    v0 = null_space(rhombus_jacobian(start, alpha))[:, 0]
+    v4 = null_space(rhombus_jacobian(beta, alpha))[:, 0]
+    p = np.sin(beta - start)
+    return -((p - (p @ v0) * v0) @ v4) * v4
+
+
+def test_at_rest_the_preference_is_the_descent_of_the_distance_to_the_start_family():
+    """H' = 0 and the barrier off: the command is -k p_perp on ker J, or that direction cut to the
+    rate budget nu beta'max; the family beta0 + s (1, -1, -1, 1) itself is not pulled along."""
+    rng = np.random.default_rng(25)
+    cut = 0
+    for _ in range(200):
+        beta = START + rng.normal(scale=0.4, size=4)
+        if measure(beta, ALPHA) < 0.05:
+            continue
+        gain, limit = rng.uniform(0.1, 3.0), rng.uniform(0.2, 1.0)
+        result = minimax_avoid_steering(rhombus_jacobian(beta, ALPHA), 20.0, np.zeros(3), limit, measure_floor=0.0,
+                                        preference_gain_per_s=gain, preference_rate_fraction=0.1,
+                                        **preferred(beta))
+        wanted = gain * expected_pull(beta)
+        budget = 0.1 * limit
+        if np.abs(wanted).max() > budget:
+            wanted *= budget / np.abs(wanted).max()
+            cut += 1
+        np.testing.assert_allclose(result.beta_rate, wanted, atol=1e-12)
+        assert result.status == "ok"
+    assert cut > 20
+    along = START + 0.3 * np.array([1.0, -1.0, -1.0, 1.0])   # on the zero-momentum family
+    result = minimax_avoid_steering(rhombus_jacobian(along, ALPHA), 20.0, np.zeros(3), 1.0, measure_floor=0.0,
+                                    **preferred(along))
+    np.testing.assert_allclose(result.beta_rate, 0.0, atol=1e-15)
+
+
+def test_the_preference_keeps_the_torque_and_spends_only_the_rate_budget():
+    """Exact torque, a shift from the min-max command along ker J only, and a step peak rate within
+    max(f(t*), min(peak so far, beta'max), nu beta'max) (eq. 5), f(t*) from `minimax`."""
+    rng = np.random.default_rng(26)
+    moved = 0
+    for _ in range(300):
+        beta = rng.uniform(-np.pi, np.pi, 4)
+        if measure(beta, ALPHA) < 0.3:
+            continue
+        h, limit = 20.0, rng.uniform(0.2, 1.0)
+        hdot = rng.normal(size=3) * h * rng.uniform(0.0, 0.1)
+        so_far = rng.uniform(0.0, 1.2) * limit
+        J = rhombus_jacobian(beta, ALPHA)
+        result = minimax_avoid_steering(J, h, hdot, limit, measure_floor=0.0, barrier_gain_per_s=1e6,
+                                        peak_rate_so_far=so_far, **preferred(beta))
+        if "rate_limited" in result.status:
+            continue
+        plain = minimax_steering(J, h, hdot, np.inf).beta_rate
+        np.testing.assert_allclose(h * J @ result.beta_rate, hdot, atol=1e-12 * h * (1 + np.abs(result.beta_rate).max()))
+        shift = result.beta_rate - plain
+        v4 = null_space(J)[:, 0]
+        np.testing.assert_allclose(shift, (shift @ v4) * v4, atol=1e-11 * (1 + np.abs(shift).max()))
+        level = max(np.abs(plain).max(), min(so_far, limit), 0.1 * limit)
+        assert np.abs(result.beta_rate).max() <= level * (1 + 1e-9)
+        moved += np.abs(shift).max() > 1e-6 * limit
+    assert moved > 100
+
+
+def test_where_the_demand_sets_the_peak_it_is_the_min_max_law():
+    """Peak so far 0, nu = 0: the budget is the min-max point itself (eq. 5), whatever the pull."""
+    rng = np.random.default_rng(27)
+    for beta, alpha, h, hdot, *_ in random_cases(rng, 200, min_measure=0.5):
+        start = beta + rng.normal(scale=0.5, size=4)
+        if measure(start, alpha) < 0.5:
+            continue
+        pulled = minimax_avoid_steering(rhombus_jacobian(beta, alpha), h, hdot, np.inf, measure_floor=0.0,
+                                        barrier_gain_per_s=1e6, preference_rate_fraction=0.0, preference_gain_per_s=5.0,
+                                        **preferred(beta, start, alpha))
+        plain = minimax_steering(rhombus_jacobian(beta, alpha), h, hdot, np.inf)
+        assert np.abs(pulled.beta_rate).max() == pytest.approx(np.abs(plain.beta_rate).max(), rel=1e-9)
+
+
+def test_no_preference_from_a_start_near_a_singular_set():
+    """A start with m <= m_floor (here beta = 0, rank 1) gives nothing to return to: the command is
+    the one without the preference's inputs."""
+    beta = np.array([0.3, -0.2, 0.5, 0.1])
+    J = rhombus_jacobian(beta, ALPHA)
+    for start in (np.zeros(4), START):
+        with_start = minimax_avoid_steering(J, 20.0, np.zeros(3), 1.0, measure_floor=1.4,
+                                            **preferred(beta, start))
+        without = minimax_avoid_steering(J, 20.0, np.zeros(3), 1.0, measure_floor=1.4,
+                                         column_derivative=rhombus_column_derivative(beta, ALPHA))
+        np.testing.assert_array_equal(with_start.beta_rate, without.beta_rate)
+
+
+# ---- random slews outside the study's seed (bench/steering_study.py, README "Steering study") ---
+
+OTHER_SEED, OTHER_SLEWS = 41, 5
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("slew", range(OTHER_SLEWS))
+def test_random_slews_of_another_seed_keep_away_from_singular_sets(slew):
+    """The first slews of seed 41 (the study's are seed 14), flown as the study flies them: the law
+    keeps sqrt(det JJ') >= 1e-3 on each, within the rate limit, and ends on the target."""
+    import importlib.util
+    from pathlib import Path
+
+    import testbed
+
+    spec = importlib.util.spec_from_file_location(
+        "steering_study", Path(__file__).resolve().parents[1] / "bench" / "steering_study.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    case = module.study_cases([slew], ["minimax_avoid"], seed=OTHER_SEED)[0]
+    metrics = testbed.run(case.data).metrics
+    assert metrics["min_singularity_measure"] >= 1e-3
+    assert metrics["rate_limit_violations"] == 0
+    assert metrics["final_attitude_error_deg"] <= 0.01

@@ -10,7 +10,9 @@ computed with (what the encoders and tachometers say the cluster holds) and `sta
 status flags as the sum of their codes (testbed.steering.result.STATUS_CODES: 1 rate_limited,
 2 rank_deficient, 4 lp_failed, 8 avoidance_limited; 0 ok). What a law needs at each step beyond
 J, h and H' (testbed.steering.STEP_INPUTS) comes from the clock and the cluster description:
-`t` (gsr) and dJ_i/dbeta_i (minimax_avoid, `unit_jacobian_derivative` of the description).
+`t` (gsr); dJ_i/dbeta_i (minimax_avoid, `unit_jacobian_derivative` of the description), the
+measured angles, the angles at t = 0 and J there, and the peak rate commanded so far
+(minimax_avoid's pull back to the start's zero-momentum family).
 
 Gimbal limits (optional, every law): `gimbal_angle_limits_deg` ([min, max] or null per gimbal)
 and `gimbal_acceleration_max_deg_s2` become per-step bounds on each rate
@@ -117,6 +119,10 @@ class SteeringAllocator:
         self.period = ctx.control_period
         gimbals = len(self.geometry.gimbal_axes)
         self.limits = configured_limits(params, ctx, gimbals)
+        # the angles the run starts from and J there (minimax_avoid's preferred configuration)
+        start = ctx.actuators.get("gimbal_angle")
+        self.start = np.zeros(gimbals) if start is None else np.array(start, dtype=float)
+        self.start_jacobian = self.geometry.unit_jacobian(self.start)
         self.setpoint = None  # commanded gimbal angles, from the first measurement on
         self.previous = np.zeros(gimbals)  # the gimbals start at rest
         defaults = {"rcond": STAGE_RCOND} if "rcond" in LAW_OPTIONS[self.law_name] else {}
@@ -135,6 +141,14 @@ class SteeringAllocator:
             inputs["t"] = t
         if "column_derivative" in self.step_inputs:
             inputs["column_derivative"] = self.geometry.unit_jacobian_derivative(beta)
+        if "gimbal_angle" in self.step_inputs:
+            inputs["gimbal_angle"] = beta
+        if "preferred_gimbal_angles" in self.step_inputs:
+            inputs["preferred_gimbal_angles"] = self.start
+        if "preferred_jacobian" in self.step_inputs:
+            inputs["preferred_jacobian"] = self.start_jacobian
+        if "peak_rate_so_far" in self.step_inputs:  # 0 before the first step (the options check)
+            inputs["peak_rate_so_far"] = getattr(self, "statistics", {}).get("peak_gimbal_rate", 0.0)
         return inputs
 
     def _check_options(self) -> None:

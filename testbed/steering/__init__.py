@@ -14,11 +14,15 @@ deliver the least-squares projection of H' onto range(J); SR/GSR damp instead.
     gsr         Wie's generalized SR inverse (dithered)        sr_inverse.py
     minimax_lp  min-max, eq. (21)-(28), scipy HiGHS LP         minimax_lp.py
     minimax     min-max, exact closed form (~us)               minimax_exact.py
-    minimax_avoid  min-max under a barrier on sqrt(det(J J^T))  minimax_avoid.py
+    minimax_avoid  min-max under a barrier on sqrt(det(J J^T)),  minimax_avoid.py
+                   pulled back to the start's zero-momentum family
 
 Some keyword arguments are not options a user sets but what the caller knows at each step
-(STEP_INPUTS): `t` the time (gsr), `column_derivative` dJ_i/dbeta_i (minimax_avoid) and
-`rate_bounds` per-gimbal bounds on beta'_i from angle and acceleration limits (gimbal_limits.py).
+(STEP_INPUTS): `t` the time (gsr), `column_derivative` dJ_i/dbeta_i (minimax_avoid),
+`rate_bounds` per-gimbal bounds on beta'_i from angle and acceleration limits (gimbal_limits.py),
+and for minimax_avoid's pull back to the start: `gimbal_angle` (the angles J is taken at),
+`preferred_gimbal_angles` and `preferred_jacobian` (the run's first angles and J there) and
+`peak_rate_so_far` (the largest |beta'_i| commanded so far).
 """
 
 from __future__ import annotations
@@ -43,7 +47,8 @@ STEERING_LAWS = {
 }
 
 # Keyword arguments a caller supplies at each step (see the module doc), not user options.
-STEP_INPUTS = frozenset({"t", "column_derivative", "rate_bounds"})
+STEP_INPUTS = frozenset({"t", "column_derivative", "rate_bounds", "gimbal_angle", "preferred_gimbal_angles",
+                         "preferred_jacobian", "peak_rate_so_far"})
 
 # Keyword options each law accepts, read from its signature.
 LAW_OPTIONS = {name: tuple(p.name for p in inspect.signature(law).parameters.values()

@@ -1,9 +1,13 @@
-"""Singularity-avoiding min-max steering: min-max rates with a barrier on sqrt(det(J J^T)).
+"""Singularity-avoiding min-max steering: min-max rates, a barrier on sqrt(det(J J^T)) and a pull
+back to the start's zero-momentum family, all along the null vector (exact torque).
 
 The min-max law (SEEDS §004 eq. (21)-(28), minimax_exact.py) spends the one free direction of
 a rank-3, 3x4 J on the lowest peak rate and nothing else; on reorient_near_singular it steers
-into a singular set. This law keeps that optimum and adds one linear constraint that keeps the
-singularity measure m = sqrt(det(J J^T)) away from zero. With b = H'/h (eq. 17):
+into a singular set. This law keeps that optimum where it decides the run's peak rate and spends
+the free direction elsewhere on two things: a barrier that keeps the singularity measure
+m = sqrt(det(J J^T)) away from zero now, and a pull towards the zero-momentum family of the
+configuration the run started from, so that the slew ends there and not on a singular
+zero-momentum set. With b = H'/h (eq. 17):
 
 1. Solutions. Thin SVD J = U diag(s_1, s_2, s_3) V^T (s_1 >= s_2 >= s_3 > 0) and v_4 the unit
    null vector: every solution of J beta' = b is
@@ -31,10 +35,45 @@ singularity measure m = sqrt(det(J J^T)) away from zero. With b = H'/h (eq. 17):
    rate gamma (m_floor - m). Far from a singular set the right side is very negative and (3) is
    inactive. In t, (3) is the half-line A = {t : (g . v_4) t >= -gamma (m - m_floor) - g . x}.
 
-4. The command. f(t) = max_i |x_i + t v_4i| is convex (a maximum of |affine|), so its minimum over
-   an interval is its unconstrained minimiser t* (closed form, minimax_exact) clipped into it:
+4. Why (3) alone is not enough. On a rest-to-rest slew about one body axis, H = -I omega runs out
+   along a ray and back to zero. A law beta' = F(beta, H') that is odd and homogeneous of degree 1
+   in H' (pinv, min-max) has d beta / d|H| = F(beta, u) on the way out and on the way back
+   (u the ray's direction): it retraces its gimbal path and ends where it started, on the
+   start's non-singular zero-momentum family. (3) is a rate per second, not per unit of
+   momentum, and a saturated rate limit scales the demand: either breaks the retrace, and the
+   path then ends somewhere else on the zero-momentum set, which for the rhombus contains the
+   two-dimensional singular family beta_1 = beta_3, beta_2 = beta_4 (two pairs cancelling,
+   least_squares.py). The barrier sees m fall only in the slew's last seconds, where H' is
+   largest and the null motion it needs exceeds the rate limit (README "Steering study").
 
-       T and A meet:          t = clip(t*, T n A)         min-max under the barrier, exact torque
+5. Preference. With beta^0 the gimbal angles the run started from (`preferred_gimbal_angles`),
+   v^0 the null vector of J(beta^0) (`preferred_jacobian`; moving along it keeps H = H(beta^0)
+   to first order, and for the rhombus the zero-momentum family through (45, -45, -45, 45) deg
+   is exactly the line beta^0 + s (1, -1, -1, 1)), the law descends
+
+       P(beta) = sum_i (1 - cos(beta_i - beta^0_i)),   p = grad P = sin(beta - beta^0),
+       p_perp = p - (p . v^0) v^0,                        t_p = -k p_perp . v_4            (4)
+
+   (`preference_gain_per_s` = k): t_p is the null coordinate of the motion -k p_perp, the pull
+   towards the start's family without a pull along it. P uses 1 - cos so that the pull is smooth
+   and periodic in each angle. It is off when the start is itself within m_floor of a singular
+   set (there is then nothing to return to) and when k = 0.
+
+6. Budget. Min-max minimises the run's peak rate; a step's rate below the peak the run has
+   already commanded (`peak_rate_so_far`) costs nothing in that objective. The preference may
+   raise the step's peak rate f(t) = max_i |x_i + t v_4i| up to
+
+       L = max(f(t*), min(peak_rate_so_far, beta'max), nu beta'max),   B = {t : f(t) <= L}      (5)
+
+   (`preference_rate_fraction` = nu: some null motion at rest, where f(t*) = 0). f is convex (a
+   maximum of |affine|), so B is an interval that contains the min-max minimiser t* (closed
+   form, minimax_exact). Where the demand sets the run's peak (f(t*) >= the peak so far, e.g.
+   the first steps of a slew) B = {t*}: the law is min-max there.
+
+7. The command. The wanted coordinate is tau = clip(t* + t_p, B) (tau = t* without a
+   preference); the barrier and the bounds come first:
+
+       T and A meet:          t = clip(tau, T n A)        exact torque
        T and A do not meet:   t = the end of T nearest A   the largest dm/dt the bounds allow,
                                                            exact torque, status avoidance_limited
        T empty:               no exact command within the bounds: the largest fraction k of the
@@ -45,15 +84,13 @@ singularity measure m = sqrt(det(J J^T)) away from zero. With b = H'/h (eq. 17):
                               and v_4 cannot absorb it) are the min-max rates limited like every
                               law's (rate_limit.apply_rate_bounds).
 
-   The avoidance itself never costs torque: it only moves along v_4. Far from singular sets
-   (A contains t*) the command is exactly the min-max one.
+   Neither the avoidance nor the preference ever costs torque: both only move along v_4. Without
+   a preference and far from singular sets (A contains t*) the command is exactly the min-max one.
 
 Rank J < 3 (s_3 <= rcond s_1): the null space has dimension >= 2 and m is not differentiable
 there; the law then does what `minimax` does (least-squares projection, null-space LP) and
-says rank_deficient. What the barrier cannot do: it acts on the present configuration only. A
-rest-to-rest slew from the zero-momentum set ends at H = 0, and whether the gimbals arrive at a
-non-singular zero-momentum set or at a singular one (two pairs cancelling) is decided while |H|
-is still large and m still high; README "Steering study" gives how often that happens.
+says rank_deficient. README "Steering study" gives how often the law still comes within 1e-3 of
+a singular set on random slews, and what the preference costs in peak rate.
 """
 
 from __future__ import annotations
@@ -112,9 +149,10 @@ def largest_exact_fraction(x: np.ndarray, n: np.ndarray, lo: np.ndarray, hi: np.
 
 
 def barrier_choice(t_star: float, t_lo: float, t_hi: float, slope: float, offset: float) -> tuple[float, bool]:
-    """(t, met): t minimising the convex f with minimiser t_star over [t_lo, t_hi] subject to
-    slope t >= offset (eq. 3 in t); when no t of the interval meets it, the end that comes
-    closest (met = False). An all-but-zero slope leaves only the check of 0 >= offset."""
+    """(t, met): the t of [t_lo, t_hi] with slope t >= offset (eq. 3 in t) nearest t_star (the
+    minimiser of a convex f over that set when t_star minimises f; eq. 7 with t_star = tau); when no
+    t of the interval meets it, the end that comes closest (met = False). An all-but-zero slope
+    leaves only the check of 0 >= offset."""
     if slope > 0.0:
         t_lo_a, t_hi_a = max(t_lo, offset / slope), t_hi
     elif slope < 0.0:
@@ -126,12 +164,52 @@ def barrier_choice(t_star: float, t_lo: float, t_hi: float, slope: float, offset
     return (t_hi if slope > 0.0 else t_lo), False
 
 
-def minimax_avoid_steering(J, h, Hdot, beta_rate_max, *, column_derivative=None, measure_floor: float = 0.6,
-                           barrier_gain_per_s: float = 0.5, rate_bounds=None,
+def preference_null_rate(beta, preferred, null_vector, n: np.ndarray, gain: float) -> float:
+    """t_p of eq. (4): the null coordinate of -k p_perp, p = sin(beta - beta0) with its component
+    along the start's null vector v0 removed, on the present null vector n."""
+    p = np.sin(np.asarray(beta, dtype=float) - preferred)
+    return -gain * float((p - (p @ null_vector) * null_vector) @ n)
+
+
+def budget_interval(x: np.ndarray, n: np.ndarray, t_star: float, level: float) -> tuple[float, float]:
+    """B of eq. (5): the t with max_i |x_i + t n_i| <= max(level, f(t*)) (an interval containing t*)."""
+    level = max(level, float(np.max(np.abs(x + t_star * n))))
+    return line_interval(x, n, np.full(x.shape, -level), np.full(x.shape, level))
+
+
+def checked_preference(gimbal_angle, preferred_gimbal_angles, preferred_jacobian, floor: float, rcond: float):
+    """(beta, beta0, v0) of eq. (4) from the step inputs, or None when there is no preference: an
+    input missing, or the start within m_floor of a singular set."""
+    if gimbal_angle is None or preferred_gimbal_angles is None or preferred_jacobian is None:
+        return None
+    try:
+        beta, start, jacobian = (np.asarray(v, dtype=float) for v in (gimbal_angle, preferred_gimbal_angles,
+                                                                        preferred_jacobian))
+    except (TypeError, ValueError):
+        raise InputError("steering.preferred_gimbal_angles", "gimbal_angle, preferred_gimbal_angles and "
+                         "preferred_jacobian must be numbers") from None
+    if beta.shape != (4,) or start.shape != (4,) or jacobian.shape != (3, 4) or not (
+            np.all(np.isfinite(beta)) and np.all(np.isfinite(start)) and np.all(np.isfinite(jacobian))):
+        raise InputError("steering.preferred_gimbal_angles", "gimbal_angle and preferred_gimbal_angles must be "
+                         "4 finite angles and preferred_jacobian a finite 3x4 matrix")
+    svd = jacobian_svd(jacobian, rcond)
+    if svd.rank < 3 or svd.measure <= floor:
+        return None
+    return beta, start, svd.null_space[0]
+
+
+def minimax_avoid_steering(J, h, Hdot, beta_rate_max, *, column_derivative=None, measure_floor: float = 0.3,
+                           barrier_gain_per_s: float = 0.5, preference_gain_per_s: float = 1.0,
+                           preference_rate_fraction: float = 0.1, gimbal_angle=None, preferred_gimbal_angles=None,
+                           preferred_jacobian=None, peak_rate_so_far: float = 0.0, rate_bounds=None,
                            rcond: float = DEFAULT_RCOND) -> SteeringResult:
-    """Min-max gimbal rates under the singularity barrier (module doc, eq. 1-3), within the bounds.
+    """Min-max gimbal rates under the singularity barrier with the pull back to the start's
+    zero-momentum family (module doc, eq. 1-5), within the bounds.
 
     column_derivative: (3, 4), column i = dJ_i/dbeta_i at the same gimbal angles as J (required).
+    gimbal_angle, preferred_gimbal_angles: (4,) [rad], the angles J is taken at and those the run
+    started from; preferred_jacobian: J at the latter (3, 4). Without all three: no preference.
+    peak_rate_so_far: the largest |beta'_i| the run has commanded [rad/s] (eq. 5).
     rate_bounds: optional (lo, hi), each (4,) [rad/s], intersected with +-beta_rate_max.
     """
     rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
@@ -147,6 +225,11 @@ def minimax_avoid_steering(J, h, Hdot, beta_rate_max, *, column_derivative=None,
     floor = number_in("steering.measure_floor", measure_floor, 0.0, math.inf, high_open=True)
     gain = positive_number("steering.barrier_gain_per_s", barrier_gain_per_s)
     rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
+    preference_gain = number_in("steering.preference_gain_per_s", preference_gain_per_s, 0.0, math.inf,
+                                high_open=True)
+    rate_fraction = number_in("steering.preference_rate_fraction", preference_rate_fraction, 0.0, 1.0)
+    peak_so_far = number_in("steering.peak_rate_so_far", peak_rate_so_far, 0.0, math.inf, high_open=True)
+    preference = checked_preference(gimbal_angle, preferred_gimbal_angles, preferred_jacobian, floor, rcond)
     lo, hi = checked_rate_bounds(rate_bounds, beta_rate_max)
     J = np.array(rows)
     b = np.array(hdot) / h
@@ -171,7 +254,12 @@ def minimax_avoid_steering(J, h, Hdot, beta_rate_max, *, column_derivative=None,
     slope = float(g @ n)
     if abs(slope) <= ZERO_SLOPE * float(np.linalg.norm(g)):
         slope = 0.0
-    t, met = barrier_choice(t_star, t_lo, t_hi, slope, offset)
+    target = t_star
+    if preference is not None and preference_gain > 0.0:
+        level = max(min(peak_so_far, beta_rate_max), rate_fraction * beta_rate_max if rate_fraction > 0.0 else 0.0)
+        band_lo, band_hi = budget_interval(x, n, t_star, level)
+        target = min(max(t_star + preference_null_rate(*preference, n, preference_gain), band_lo), band_hi)
+    t, met = barrier_choice(target, t_lo, t_hi, slope, offset)
     beta_rate = np.clip(x + t * n, lo, hi)  # the clip only removes rounding at an end of T
     return SteeringResult(beta_rate, h * (J @ beta_rate), 1.0, svd.measure, svd.rank,
                           status_string(False, avoidance_limited=not met))
