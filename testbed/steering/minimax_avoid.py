@@ -150,9 +150,9 @@ def largest_exact_fraction(x: np.ndarray, n: np.ndarray, lo: np.ndarray, hi: np.
 
 def barrier_choice(t_star: float, t_lo: float, t_hi: float, slope: float, offset: float) -> tuple[float, bool]:
     """(t, met): the t of [t_lo, t_hi] with slope t >= offset (eq. 3 in t) nearest t_star (the
-    minimiser of a convex f over that set when t_star minimises f; eq. 7 with t_star = tau); when no
-    t of the interval meets it, the end that comes closest (met = False). An all-but-zero slope
-    leaves only the check of 0 >= offset."""
+    minimiser over that set of a convex f minimised at t_star; module doc step 7 with t_star = tau);
+    when no t of the interval meets it, the end that comes closest (met = False). An all-but-zero
+    slope leaves only the check of 0 >= offset."""
     if slope > 0.0:
         t_lo_a, t_hi_a = max(t_lo, offset / slope), t_hi
     elif slope < 0.0:
