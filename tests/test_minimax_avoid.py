@@ -167,6 +167,13 @@ def test_rate_bounds_are_met_with_exact_torque_when_the_null_space_allows():
     ({"column_derivative": np.zeros((3, 4)), "measure_floor": -0.1}, "steering.measure_floor"),
     ({"column_derivative": np.zeros((3, 4)), "barrier_gain_per_s": 0.0}, "steering.barrier_gain_per_s"),
     ({"column_derivative": np.zeros((3, 4)), "rate_bounds": ([1, 1, 1, 1], [0, 0, 0, 0])}, "steering.rate_bounds"),
+    ({"column_derivative": np.zeros((3, 4)), "preference_gain_per_s": -1.0}, "steering.preference_gain_per_s"),
+    ({"column_derivative": np.zeros((3, 4)), "preference_rate_fraction": 1.5}, "steering.preference_rate_fraction"),
+    ({"column_derivative": np.zeros((3, 4)), "peak_rate_so_far": math.nan}, "steering.peak_rate_so_far"),
+    ({"column_derivative": np.zeros((3, 4)), "gimbal_angle": np.zeros(4), "preferred_gimbal_angles": np.zeros(3),
+      "preferred_jacobian": np.zeros((3, 4))}, "steering.preferred_gimbal_angles"),
+    ({"column_derivative": np.zeros((3, 4)), "gimbal_angle": np.zeros(4), "preferred_gimbal_angles": np.zeros(4),
+      "preferred_jacobian": np.full((3, 4), np.inf)}, "steering.preferred_gimbal_angles"),
 ])
 def test_bad_input_names_the_field(options, field):
     J = rhombus_jacobian(np.array([0.1, 0.2, 0.3, 0.4]), 0.9)
