@@ -111,15 +111,17 @@ def test_singularity_avoiding_minimax_keeps_away_with_exact_torque_near_singular
 
 @pytest.mark.slow
 def test_singularity_avoiding_minimax_is_min_max_far_from_singular_sets(runs):
-    """On reorient_minimax's slew the barrier never acts: peak rate within 2 % of minimax's (the
-    commands agree sample by sample to rounding)."""
+    """On reorient_minimax's slew the barrier never acts and the pull back to the start spends only
+    rate below the peak the demand set on the slew's first step: the peak rate is minimax's (to
+    rounding; the issue asks for 2 %), the torque exact sample by sample. The commands themselves
+    differ from minimax's once the pull has moved the gimbals (module doc, eq. 4-5)."""
     avoid = run_scenario(load_scenario("reorient_minimax_avoid"), None, keep_data=True)
     assert avoid.passed, avoid.checks
     plain = runs["minimax"]
-    assert abs(avoid.metrics["peak_gimbal_rate_deg_s"] / plain.metrics["peak_gimbal_rate_deg_s"] - 1) <= 0.02
-    np.testing.assert_allclose(avoid.data.recorder["allocator/gimbal_rates"][:-1],
-                               plain.data.recorder["allocator/gimbal_rates"][:-1], atol=1e-9)
-    assert not np.any(avoid.data.recorder["allocator/status"][:-1, 0])
+    assert abs(avoid.metrics["peak_gimbal_rate_deg_s"] / plain.metrics["peak_gimbal_rate_deg_s"] - 1) <= 1e-9
+    rec = avoid.data.recorder
+    np.testing.assert_allclose(rec["allocator/torque_delivered"][:-1], rec["law/torque"][:-1], atol=1e-9)
+    assert not np.any(rec["allocator/status"][:-1, 0])
 
 
 # --- the stages on their own ---------------------------------------------------------------
