@@ -314,7 +314,7 @@ class WindowPeakRatio(_OfSignal):
     over the samples of window k = floor((t - t_0) / `window` + 1e-9), consecutive windows that
     hold samples (< 1: every window's peak below the one before); NaN with fewer than two."""
 
-    window: float = 1.0
+    window: float
 
     def start(self):
         return {"t0": None, "k": None, "peak": None, "previous": None, "ratio": None}
