@@ -5,7 +5,8 @@ Streamed: the run as `testbed run` makes it (only the signals the metrics declar
 in chunks of CHUNK so that every window and phase boundary falls inside some chunk. Whole
 history: the same scenario with keep_data=True, each running reduction replaced by the numpy
 expression its docstring gives, evaluated over the whole recorded history at once
-(`whole_history_value`), a second method that shares no code with testbed.reductions.
+(`whole_history_value`), a second method that shares no code with testbed.reductions (a
+system's own reduction, the CMG servo tracking peaks, is fed the whole history as one chunk).
 """
 
 from __future__ import annotations
