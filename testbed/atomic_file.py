@@ -12,9 +12,16 @@ import tempfile
 from pathlib import Path
 
 
+# bytes of the final name kept in the temporary one: with the dots, mkstemp's 8 random
+# characters and ".partial" it stays far inside any file system's 255-byte name limit
+NAME_KEPT = 100
+
+
 def partial_beside(path: Path) -> tuple[int, str]:
-    """(open descriptor, name) of a new unique temporary file in `path`'s folder."""
-    return tempfile.mkstemp(dir=Path(path).parent, prefix=f".{Path(path).name}.", suffix=".partial")
+    """(open descriptor, name) of a new unique temporary file in `path`'s folder, named
+    `.<the first NAME_KEPT bytes of its name>.<random>.partial`."""
+    kept = Path(path).name.encode()[:NAME_KEPT].decode(errors="ignore")  # never half a character
+    return tempfile.mkstemp(dir=Path(path).parent, prefix=f".{kept}.", suffix=".partial")
 
 
 def publish(partial: str, path: Path) -> None:

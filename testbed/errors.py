@@ -1,6 +1,9 @@
 """The one error type for bad user input (scenario fields, CLI options), and how it quotes values."""
 
+import contextlib
 import reprlib
+
+import numpy as np
 
 _REPR = reprlib.Repr()
 _REPR.maxlevel, _REPR.maxlist, _REPR.maxdict, _REPR.maxstring, _REPR.maxother, _REPR.maxlong = 3, 6, 4, 60, 60, 40
@@ -32,3 +35,15 @@ class InputError(Exception):
         self.field = one_line(field)  # a user's key may be part of it
         self.reason = one_line(reason)  # one line, whatever the user's value held
         super().__init__(f"{self.field}: {self.reason}")
+
+
+@contextlib.contextmanager
+def refused_as(field: str, name: str = ""):
+    """Arithmetic and linear-algebra failures while building from the user's parameters (an
+    overflow, a failed factorisation) become InputError(field), the built type `name` leading
+    the reason: parameters too extreme to build are bad input, not a crash."""
+    try:
+        yield
+    except (ArithmeticError, np.linalg.LinAlgError) as exc:
+        lead = f"{name}: " if name else ""
+        raise InputError(field, f"{lead}its parameters cannot be built: {type(exc).__name__}: {exc}") from None

@@ -25,7 +25,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from testbed.errors import InputError, quoted
+from testbed.errors import InputError, quoted, refused_as
 from testbed.registry import Registry
 
 SLOTS = ("sensor", "estimator", "law", "allocator")
@@ -262,11 +262,8 @@ class Pipeline:
         `OutputCheck` (an allocator's command keys take their shapes from `actuators`)."""
         stages = []
         for slot in SLOTS:
-            try:
+            with refused_as(f"pipeline.{slot}", configs[slot][0]):
                 stages.append(build(slot, *configs[slot], ctx))
-            except (ArithmeticError, np.linalg.LinAlgError) as exc:  # parameters too extreme to build
-                raise InputError(f"pipeline.{slot}", f"{configs[slot][0]}: its parameters cannot be built: "
-                                                     f"{type(exc).__name__}: {exc}") from None
         checks = {}
         for slot, stage_object in zip(SLOTS, stages):
             if _is_builtin(stage_object):

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from testbed import metrics, references_registry, systems_registry, trace
-from testbed.errors import InputError
+from testbed.errors import InputError, refused_as
 from testbed.pipeline import Pipeline, StageContext, StageFailed, params_dict, stage_infos
 from testbed.plant import SimulationDiverged
 from testbed.recorder import FLUSH_AFTER_S, Chunk, Recorder, Trace
@@ -84,7 +84,7 @@ def prepare(scenario):
 
     Parameters so extreme that building from them overflows or breaks a factorisation are bad
     input, named by the part being built (model, pipeline slot, reference)."""
-    with np.errstate(all="raise"), _refused_as("model"):
+    with np.errstate(all="raise"), refused_as("model"):
         plant = systems_registry.make_plant(scenario)
         plant.record_energy = scenario.stages["allocator"][0] == "none"
         plant.initialise(scenario.initial)
@@ -97,18 +97,9 @@ def prepare(scenario):
         raise InputError("pipeline.allocator.type", f"{scenario.stages['allocator'][0]} commands {output}, "
                          f"which model.system {scenario.system} does not have")
     references_registry.check_system(scenario)  # after the stages: a reference describes them
-    with np.errstate(all="raise"), _refused_as("reference"):
+    with np.errstate(all="raise"), refused_as("reference"):
         reference = references_registry.prepare(scenario, plant) if scenario.reference else None
     return plant, pipeline, reference
-
-
-@contextlib.contextmanager
-def _refused_as(field: str):
-    """Arithmetic and linear-algebra failures while building from parameters: InputError(field)."""
-    try:
-        yield
-    except (ArithmeticError, np.linalg.LinAlgError) as exc:
-        raise InputError(field, f"its parameters cannot be built: {type(exc).__name__}: {exc}") from None
 
 
 def stage_context(scenario, inertia, description=None, actuators=None, internal_momentum=None) -> StageContext:

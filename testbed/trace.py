@@ -23,7 +23,6 @@ import contextlib
 import json
 import os
 import re
-import tempfile
 import uuid
 from pathlib import Path
 
@@ -292,8 +291,8 @@ def check_creatable(path: Path, field: str) -> None:
     existing = next(a for a in [path.parent, *path.parent.parents] if a.exists())
     if not existing.is_dir():
         raise InputError(field, f"{quoted(str(existing))} is a file, so {quoted(str(path))} cannot be created")
-    # the one sure test: create (and remove) a file of the trace's name length where it will go
-    handle, probe = tempfile.mkstemp(dir=existing, prefix=f".{path.name[:100]}.", suffix=".partial")
+    # the one sure test: create (and remove) the kind of temporary file the trace is written to
+    handle, probe = partial_beside(existing / path.name)
     os.close(handle)
     os.unlink(probe)
 

@@ -714,6 +714,16 @@ def test_names_the_file_system_refuses(cli, argv):
     assert_refused(cli(*argv))
 
 
+
+@pytest.mark.parametrize("name", ["n" * 251 + ".rrd", "é" * 125 + "n.rrd"], ids=["251 ascii", "125 two-byte"])
+def test_a_name_at_the_file_system_limit_is_written(cli, name):
+    """A trace name of 255 bytes is a name the file system takes: the run writes it (its
+    temporary file beside it keeps only the first bytes of the name, whole characters)."""
+    assert len(name.encode()) == 255
+    out = Path.cwd() / name
+    stored = assert_ran(cli("run", "cmg_open_loop", "--out", out, "--set", SHORT), out)
+    assert stored["status"] == "ok"
+
 # --- 8. stages that do not fit the system -----------------------------------------------------
 
 @pytest.mark.parametrize("scenario, duration", [

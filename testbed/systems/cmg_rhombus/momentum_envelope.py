@@ -97,11 +97,12 @@ def envelope_points(alpha, n, h=1.0, axes=None) -> np.ndarray:
 def singular_surface_points(alpha, n, h=1.0, axes=None) -> dict[tuple[int, ...], np.ndarray]:
     """{sign pattern ε (ε1 = +1): points (m, 3)} for the envelope (1,1,1,1) and the 7 internal surfaces."""
     g = rhombus_gimbal_axes(alpha) if axes is None else _axes(axes)
-    u = _directions(g, n)
+    # the per-CMG momenta of a pattern are those of the envelope times its signs ε_i (exact)
+    external = singular_momenta(_directions(g, n), EXTERNAL, g, h)
     surfaces = {}
     for rest in itertools.product((1, -1), repeat=g.shape[0] - 1):
         pattern = (1, *rest)
-        surfaces[pattern] = singular_momenta(u, pattern, g, h).sum(axis=1)
+        surfaces[pattern] = np.einsum("i,mia->ma", np.array(pattern, dtype=float), external)
     return surfaces
 
 
