@@ -7,7 +7,7 @@ estimate of x = w - (0, 0, Omega), eq. 4.1) and the momentum H an internal actua
 
 - start-up, 0 <= t < t*: the body is uncontrolled, I w' = -w x (I w + H), H constant; the
   linear observer z' = A z + l (y - C z) (eq. 3.1, or with H the observer's
-  `startup_derivative`) runs from z = 0;
+  `startup_derivative`) runs from z = 0 (with H: from the body at rest, `start`);
 - closed loop, t >= t*: the law M = I K z (eq. 4.7); the observer
   z' = A z + l_c (y - C z) + F(z) + u with u = M / I (eq. 4.6); ideal torques act on the
   body directly, I w' = M - w x I w; an internal actuator that compensates w x H with the
@@ -26,8 +26,6 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from testbed.observers.lebedev_observer import cross3
-
-
 
 # Right-hand-side evaluations allowed for one solution (the paper's 1000 s take 16 000): a stiff
 # design (very fast poles, a huge gain) would otherwise keep DOP853 busy for hours.

@@ -31,7 +31,6 @@ measured tilt of the shipped scenario is in the README.
 from __future__ import annotations
 
 import numpy as np
-
 from scipy.integrate import solve_ivp
 from scipy.linalg import solve_continuous_lyapunov
 

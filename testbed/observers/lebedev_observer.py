@@ -149,16 +149,13 @@ def observer_gain(inertia, spin_rate, sensor_axis, poles):
     return ackermann_gain(A, sensor_axis, poles)
 
 
-def ackermann_gain(A, sensor_axis, poles, desired=None):
+def ackermann_gain(A, sensor_axis, poles):
     """l with eig(A - l C) = poles for any observable 3x3 A and C = p' (the T^-1 L construction).
 
     The same formulas as `observer_gain` (Lebedev 1976, text after eq. 4.7) with A general;
     raises InputError("sensor.axis", ...) when det T = -det W vanishes (pair unobservable).
-    `desired`: theta's coefficients np.poly(poles).real, when the caller places the same
-    (already checked) poles again and again.
     """
-    if desired is None:
-        desired = np.poly(check_observer_poles(poles)).real
+    desired = np.poly(check_observer_poles(poles)).real
     A = np.asarray(A, dtype=float)
     c = np.asarray(sensor_axis, dtype=float)
     alpha = np.poly(A).real  # (1, alpha1, alpha2, alpha3)
