@@ -11,7 +11,8 @@ the ball of total momenta whose every state is observable at every instant, and 
 information the measured-momentum observer holds at the end of a spin with total momentum |L|
 at angle theta to the spin axis, relative to the rigid body's
 (testbed.observers.lebedev_momentum.end_state_information, no band: the circle itself); the
-load-time check refuses below MIN_INFORMATION within END_BAND_DEG of the initial angle.
+load-time check refuses below MIN_INFORMATION at the angles the idle start-up takes L to, give or
+take CLOSED_LOOP_TILT_DEG.
 
 With --cases N: runs `lebedev_spinup_cmg_momentum` N times from random gimbal angles (uniform in
 [-180, 180) deg, seeded; the stored momentum is what they hold), with any further --set

@@ -13,8 +13,10 @@ from testbed.cli import main
 from testbed.errors import InputError
 from testbed.math.information_filter import filter_gain, gathered_information, information_rate
 from testbed.observers.lebedev_momentum import (
+    CLOSED_LOOP_TILT_DEG,
     axial_unobservable_momenta,
     end_state_information,
+    idle_polar_range,
     observability_determinant,
     observable_momentum_radius,
 )
@@ -182,7 +184,8 @@ def test_end_state_information_and_the_load_time_refusal(tmp_path, capsys):
 @pytest.mark.slow
 def test_stored_momentum_scenario_spins_up_from_one_gyro():
     """The shipped scenario passes the flagship's checks with 22 % of the cluster's capacity stored;
-    the spin axis tilts against L by far less than the 15 deg the load-time check allows."""
+    L's angle to body z at the end lies within the load-time check's band: the range the idle
+    start-up sweeps (solved independently of the run) widened by CLOSED_LOOP_TILT_DEG."""
     from testbed.runner import prepare, run_scenario
     from testbed.scenario import load_scenario
 
@@ -196,8 +199,12 @@ def test_stored_momentum_scenario_spins_up_from_one_gyro():
     assert np.linalg.norm(L_world[0]) >= 0.2 * capacity
     assert run.metrics["momentum_drift_rel"] < 1e-8                 # of the 300 N m s in the rotors
     body = np.diag(plant.locked_inertia()) * rec["truth/omega"] + rec["truth/cmg_momentum"]   # L in body axes
-    tilt = np.degrees(np.arccos(body[[0, -1], 2] / np.linalg.norm(body[[0, -1]], axis=1)))
-    assert abs(tilt[1] - tilt[0]) < 5.0                            # measured 3.2 deg
+    polar = np.degrees(np.arccos(body[:, 2] / np.linalg.norm(body, axis=1)))
+    at_closing = polar[np.searchsorted(rec.time, scenario.stages["estimator"][1].startup_s)]
+    assert abs(polar[-1] - at_closing) < CLOSED_LOOP_TILT_DEG       # measured 1.1 deg (20.1 deg while idle)
+    low, high = idle_polar_range(np.diag(plant.locked_inertia()), plant.internal_momentum_body(),
+                                 np.radians(scenario.initial.omega_deg_s), 150.0)
+    assert low - CLOSED_LOOP_TILT_DEG <= polar[-1] <= high + CLOSED_LOOP_TILT_DEG
 
 
 @pytest.mark.slow

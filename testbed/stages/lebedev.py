@@ -29,7 +29,7 @@ from typing import Literal
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.observers.lebedev_momentum import check_momentum_observable
+from testbed.observers.lebedev_momentum import check_momentum_observable, idle_polar_range
 from testbed.observers.lebedev_observer import (
     LebedevObserver,
     check_gains,
@@ -179,7 +179,7 @@ class LebedevEstimator:
             self.observer = self.build_observer(params, ctx.inertia, law.design["spin_rate"],
                                                 sensor.design["sensing_axis"])
         if self.momentum_key is not None:
-            self._check_momentum(ctx)   # and starts the observer with the H the idle cluster holds
+            self._check_momentum(ctx, params.startup_s)   # and starts the observer with the H held
         self.startup = params.startup_s
         self.linear_hold = params.measurement_hold == "linear"
         self.l = self.observer.l
@@ -187,7 +187,7 @@ class LebedevEstimator:
         self._y_prev = 0.0
         self._command: tuple | None = None   # the cluster's held command (measured momentum)
 
-    def _check_momentum(self, ctx) -> None:
+    def _check_momentum(self, ctx, startup: float) -> None:
         """Refuse, before the run, momentum one gyro cannot work with: an idle cluster whose H(0)
         leaves the body at rest unobservable (the filter's start information singular), and a
         total momentum L whose end states the filter would hold too little information about
@@ -202,7 +202,8 @@ class LebedevEstimator:
                                       f"body at rest (I^-1 [H x], C unobservable: information {least:.3g} of "
                                       f"{largest:.3g})")
         total = np.asarray(ctx.inertia, float) @ np.asarray(ctx.initial.omega, float) + held
-        check_momentum_observable(obs.inertia, obs.spin_rate, obs.C, total, obs.decay, "initial")
+        idle = idle_polar_range(obs.inertia, held, ctx.initial.omega, startup)
+        check_momentum_observable(obs.inertia, obs.spin_rate, obs.C, total, obs.decay, "initial", idle)
 
     @staticmethod
     def build_observer(params: LebedevObserverParams, inertia, spin_rate: float, sensing_axis) -> LebedevObserver:
