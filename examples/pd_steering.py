@@ -146,36 +146,39 @@ class WeightedPinv:
 
 
 # --- metrics (checked in the scenario's `checks:`) --------------------------------------------
+# `uses=` names the signals a metric reads (() for the stages' own statistics): the run keeps
+# only their history, so its memory does not hold every signal.
 
 def _uses(slot: str, name: str):
     return lambda scenario: scenario.stages[slot][0] == name
 
 
-@testbed.metric("user_final_attitude_error_deg", applies=_uses("law", LAW))
+@testbed.metric("user_final_attitude_error_deg", applies=_uses("law", LAW), uses=("truth/quat",))
 def final_attitude_error_deg(run) -> float:
     """Angle between the final bus attitude and user.quaternion_pd's target [deg]."""
     return angle_between_deg(run.statistics["law"]["target_quat"], run.recorder["truth/quat"][-1])
 
 
-@testbed.metric("user_peak_gimbal_rate_deg_s", applies=_uses("allocator", ALLOCATOR))
+@testbed.metric("user_peak_gimbal_rate_deg_s", applies=_uses("allocator", ALLOCATOR), uses=())
 def peak_gimbal_rate_deg_s(run) -> float:
     """max over every control step and gimbal of user.weighted_pinv's commanded |b'_i| [deg/s]."""
     return float(np.degrees(run.statistics["allocator"]["peak_gimbal_rate"]))
 
 
-@testbed.metric("user_rate_limit_violations", applies=_uses("allocator", ALLOCATOR))
+@testbed.metric("user_rate_limit_violations", applies=_uses("allocator", ALLOCATOR), uses=())
 def rate_limit_violations(run) -> float:
     """Count of commanded |b'_i| > b'max over every control step and gimbal (must be 0)."""
     return float(run.statistics["allocator"]["rate_limit_violations"])
 
 
-@testbed.metric("user_min_scale", applies=_uses("allocator", ALLOCATOR))
+@testbed.metric("user_min_scale", applies=_uses("allocator", ALLOCATOR), uses=())
 def min_scale(run) -> float:
     """Smallest factor the rate limit applied to user.weighted_pinv's command (1: never limited)."""
     return float(run.statistics["allocator"]["min_scale"])
 
 
-@testbed.metric("user_torque_error_rel", applies=_uses("allocator", ALLOCATOR))
+@testbed.metric("user_torque_error_rel", applies=_uses("allocator", ALLOCATOR),
+                uses=("law/torque", "allocator/torque_delivered"))
 def torque_error_rel(run) -> float:
     """RMS |M_wanted - M_delivered| / RMS |M_wanted| over the control samples."""
     wanted, delivered = run.recorder["law/torque"], run.recorder["allocator/torque_delivered"]

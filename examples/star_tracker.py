@@ -79,7 +79,8 @@ def _slew_with_star_tracker(scenario) -> bool:
     return scenario.stages["sensor"][0] == "user.star_tracker" and scenario.stages["law"][0] == "slew"
 
 
-@testbed.metric("user_true_tracking_error_deg", applies=_slew_with_star_tracker)
+@testbed.metric("user_true_tracking_error_deg", applies=_slew_with_star_tracker,
+                uses=("law/program_quat", "truth/quat"))  # the run keeps only these signals' history
 def true_tracking_error_deg(run) -> float:
     """max over control samples of the angle between the slew's program attitude and the TRUE attitude [deg]."""
     program, truth = run.recorder["law/program_quat"], run.recorder["truth/quat"]

@@ -133,7 +133,8 @@ def attitude_error(target, q):
 
 
 @testbed.metric("my_final_attitude_error_deg",
-                applies=lambda scenario: scenario.stages["law"][0] == "my.controller")
+                applies=lambda scenario: scenario.stages["law"][0] == "my.controller",
+                uses=("truth/quat",))  # the signals it reads: the run keeps only their history
 def final_attitude_error_deg(run):
     """Angle between the final attitude and the law's target_quat [deg]."""
     target = np.asarray(run.scenario.stages["law"][1].target_quat, dtype=float)

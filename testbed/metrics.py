@@ -24,7 +24,11 @@ class Metric:
     doc: str
     applies: Callable
     compute: Callable
-    uses: tuple | None = None  # signal keys whose history it reads, running reductions; None: everything
+    uses: tuple | Callable | None = None  # what it reads (see `metric`); None: everything
+
+    def used_by(self, scenario) -> tuple | None:
+        """The signal keys and reductions the metric reads in `scenario` (None: every signal)."""
+        return self.uses(scenario) if callable(self.uses) else self.uses
 
 
 METRICS = Registry("metric")
@@ -36,10 +40,13 @@ def metric(name: str, applies: Callable = lambda scenario: True, uses=None):
     `uses` says what the metric reads, so that a run keeps no more than that: signal keys whose
     whole history it reads as `run.recorder[key]` (with `run.recorder.time`), and running
     reductions (`testbed.reductions`) it reads as `run.reduced(reduction)`, which need no
-    history. None (the default) keeps every signal of the run in memory."""
+    history. `uses` may be a function of the scenario giving them (a reduction built from the
+    scenario's parameters, e.g. a window that ends at the planned end of the run; the metric
+    builds the same one from `run.scenario` to read it). None (the default) keeps every signal
+    of the run in memory."""
 
     def register(fn):
-        declared = None if uses is None else tuple(uses)
+        declared = uses if uses is None or callable(uses) else tuple(uses)
         METRICS.add(name, Metric(name, (fn.__doc__ or "").strip().splitlines()[0], applies, fn, declared))
         return fn
 
@@ -54,7 +61,7 @@ def kept_signals(scenario) -> set[str] | None:
     """The signal keys whose history the metrics of `scenario` read (None: every signal)."""
     keys: set[str] = set()
     for name in available(scenario):
-        uses = METRICS[name].uses
+        uses = METRICS[name].used_by(scenario)
         if uses is None:
             return None
         keys |= {u for u in uses if isinstance(u, str)}
@@ -63,7 +70,7 @@ def kept_signals(scenario) -> set[str] | None:
 
 def reductions(scenario) -> list:
     """The running reductions the metrics of `scenario` read, each once."""
-    return list(dict.fromkeys(u for name in available(scenario) for u in (METRICS[name].uses or ())
+    return list(dict.fromkeys(u for name in available(scenario) for u in (METRICS[name].used_by(scenario) or ())
                               if not isinstance(u, str)))
 
 

@@ -272,7 +272,7 @@ def _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress) -> Non
         if progress is not None and first >= next_report:
             progress(first / n_ticks)
             next_report = first + report_every
-    recorder.sample(n_ticks * tc, {"truth": plant.truth()})  # the final state, on the trace grid or not
+    recorder.sample(sim.end_time_s, {"truth": plant.truth()})  # the final state, on the trace grid or not
 
 
 def block_ticks(trace_every: int, longest: int) -> int:
@@ -306,4 +306,4 @@ def _multirate_loop(plant, pipeline, recorder, n_samples, trace_every, sim, prog
         step(steps)
         if progress is not None and j % report_every == 0:
             progress(j / n_samples)
-    recorder.sample(n_samples * ts, {"truth": plant.truth()})  # the final state, on the trace grid or not
+    recorder.sample(sim.end_time_s, {"truth": plant.truth()})  # the final state, on the trace grid or not

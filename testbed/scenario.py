@@ -83,6 +83,15 @@ class SimConfig:
         schema.whole_multiple(self.duration_s, self.control_period_s, schema.join(path, "duration_s"), "control_period_s")
         self.steps_per_tick = steps
 
+    @property
+    def end_time_s(self) -> float:
+        """Time of the run's last trace sample, the final state [s]: n Tc after n = duration / Tc
+        control ticks (n k Ts with k estimator samples a tick), as the run loop records it."""
+        n_ticks = round(self.duration_s / self.control_period_s)
+        if self.samples_per_tick == 1:
+            return n_ticks * self.control_period_s
+        return n_ticks * self.samples_per_tick * self.estimator_period_s
+
 
 @dataclass
 class InitialState:

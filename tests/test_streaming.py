@@ -304,3 +304,82 @@ def test_an_envelope_must_be_whole_trace_periods():
             "pipeline": {"sensor": {"type": "ideal_attitude"}, "estimator": {"type": "attitude"}, "law": {"type": "lebedev", "task": "detumble", "residual_rate_deg_s": 0.1, "gains_per_s": [-0.1, -0.1, -0.1]}, "allocator": {"type": "ideal_torque"}}}
     with pytest.raises(InputError, match="trace_envelope_s"):
         testbed.run(spec)
+
+
+def _fed_in_chunks(reductions_, time, signals, rng, cuts=9):
+    """A Reductions fed `signals` (key -> (n, ...)) in chunks cut at random rows."""
+    from testbed.recorder import Chunk
+    from testbed.reductions import Reductions
+
+    running = Reductions(reductions_)
+    edges = np.sort(rng.choice(np.arange(1, len(time)), size=cuts, replace=False))
+    for lo, hi in zip([0, *edges], [*edges, len(time)]):
+        running.update(Chunk(int(lo), time[lo:hi], {key: v[lo:hi] for key, v in signals.items()}))
+    return running
+
+
+def _column(chunk):
+    return chunk.signals.get("v")
+
+
+def test_row_reductions_and_windows_equal_the_whole_history_expressions():
+    """Mean, NaN-aware maxima, the value at a time and the peak ratio of consecutive windows,
+    fed in random chunks, against the numpy expression over the whole history (NaN rows where
+    the signal was not recorded, as the trace's last row holds only the truth)."""
+    from testbed.reductions import FirstFrom, Mean, NanMax, NanMaxBefore, WindowPeakRatio
+
+    rng = np.random.default_rng(151)
+    n = 2000
+    time = np.arange(n) * 0.05
+    values = rng.normal(size=(n, 3)) * np.exp(rng.normal(size=(n, 1)))
+    values[rng.choice(n, 40, replace=False)] = np.nan
+    values[-1] = np.nan
+    reds = [NanMax("v"), Mean(_column), NanMaxBefore(_column, 31.4), FirstFrom(_column, 31.4),
+            WindowPeakRatio("v", 5.0)]
+    running = _fed_in_chunks(reds, time, {"v": values}, rng)
+    assert running.value(NanMax("v")) == np.nanmax(values)
+    finite = values[~np.isnan(values[:, 0])]
+    assert np.isnan(running.value(Mean(_column))).all()  # a NaN row makes the mean NaN, as np.mean
+    assert np.array_equal(running.value(NanMaxBefore(_column, 31.4)), np.nanmax(values[time < 31.4], axis=0))
+    assert np.array_equal(running.value(FirstFrom(_column, 31.4)), values[np.flatnonzero(time >= 31.4)[0]],
+                          equal_nan=True)
+    means = _fed_in_chunks([Mean(_column)], time[: len(finite)], {"v": finite}, rng).value(Mean(_column))
+    np.testing.assert_allclose(means, np.mean(finite, axis=0), rtol=1e-14, atol=0)
+    # peak |v| of each 5 s window (NaN rows make their window's peak NaN, as np.max)
+    clean = np.where(np.isnan(values), 1.0, values)
+    norms = np.linalg.norm(clean, axis=1) * np.exp(-time / 20)
+    peaks = np.array([np.max(norms[(time >= 5 * k - 1e-9) & (time < 5 * (k + 1) - 1e-9)]) for k in range(20)])
+    ratio = _fed_in_chunks([WindowPeakRatio("v", 5.0)], time, {"v": clean * np.exp(-time / 20)[:, None]}, rng)
+    assert ratio.value(WindowPeakRatio("v", 5.0)) == np.max(peaks[1:] / peaks[:-1])
+    assert np.isnan(running.value(WindowPeakRatio("v", 5.0)))
+
+
+@pytest.mark.parametrize("ends_at", [99.95, 71.3, 7.0])
+def test_a_tail_window_equals_the_whole_history_one_when_the_run_ends_early_or_on_time(ends_at, monkeypatch):
+    """TailMean and TailNanMax over t >= t_e - f (t_e - t_0), planned t_e = 99.95 s: a run that
+    ends on time (the aggregate kept over the planned window), and runs cut short at 71.3 s and
+    7 s (the samples kept for that case); with fewer samples kept than the early window holds,
+    the value is refused, not wrong."""
+    from testbed import reductions
+    from testbed.reductions import TailMean, TailNanMax
+
+    rng = np.random.default_rng(152)
+    time = np.arange(2000) * 0.05
+    values = rng.normal(size=(2000, 2)) + 3.0
+    values[rng.choice(2000, 30, replace=False), 1] = np.nan
+    n = np.searchsorted(time, ends_at) + 1
+    time, values = time[:n], values[:n]
+    mean, peak = TailMean(_column, 0.2, 99.95), TailNanMax(_column, 0.1, 99.95)
+    running = _fed_in_chunks([mean, peak], time, {"v": values}, rng)
+    tail = time >= time[-1] - 0.2 * (time[-1] - time[0])
+    np.testing.assert_allclose(running.value(mean), np.mean(values[tail], axis=0), rtol=1e-14, atol=0)
+    assert not np.isnan(running.value(mean)[0]) and np.isnan(running.value(mean)[1])
+    last = time >= time[-1] - 0.1 * (time[-1] - time[0])
+    assert np.array_equal(running.value(peak), np.nanmax(values[last], axis=0))
+    monkeypatch.setattr(reductions, "CUT_SHORT_ROWS", int(tail.sum()) - 1)
+    few = _fed_in_chunks([mean], time, {"v": values}, rng)
+    if ends_at == 99.95:
+        np.testing.assert_allclose(few.value(mean), running.value(mean), rtol=1e-15, atol=0)
+    else:
+        with pytest.raises(ValueError, match="before its planned end"):
+            few.value(mean)

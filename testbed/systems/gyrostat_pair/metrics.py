@@ -32,6 +32,10 @@ def _observer(scenario) -> bool:
     return scenario.system == "gyrostat_pair" and scenario.stages["estimator"][0] == "invariant_manifold"
 
 
+# the decay fits read the history from the error's peak on (kept: these signals only)
+OBSERVER_SIGNALS = ("estimator/omega", "truth/omega")
+
+
 def _w3_error(run) -> np.ndarray:
     return run.recorder["estimator/omega"][:, 2] - run.recorder["truth/omega"][:, 2]
 
@@ -41,21 +45,21 @@ def _valid(run):
     return np.isfinite(run.recorder["estimator/omega"][:, 0])
 
 
-@metric("observer_decay_rate_1_s", applies=_observer)
+@metric("observer_decay_rate_1_s", applies=_observer, uses=OBSERVER_SIGNALS)
 def observer_decay_rate_1_s(run) -> float:
     """Decay rate fitted to |w3_estimate - w3| (eq. 14: eta' = -gamma eta) [1/s]."""
     ok = _valid(run)
     return fitted_decay_rate(run.recorder.time[ok], _w3_error(run)[ok])
 
 
-@metric("observer_decay_rate_error_rel", applies=_observer)
+@metric("observer_decay_rate_error_rel", applies=_observer, uses=OBSERVER_SIGNALS)
 def observer_decay_rate_error_rel(run) -> float:
     """|fitted decay rate - gamma| / gamma."""
     gamma = run.scenario.stages["estimator"][1].gamma_1_s
     return abs(observer_decay_rate_1_s(run) - gamma) / gamma
 
 
-@metric("observer_final_error_rad_s", applies=_observer)
+@metric("observer_final_error_rad_s", applies=_observer, uses=OBSERVER_SIGNALS)
 def observer_final_error_rad_s(run) -> float:
     """|w_estimate - w| (all three components) at the last estimate [rad/s]."""
     ok = _valid(run)
@@ -73,7 +77,7 @@ final_norm_metric("sync_final_error_rad_s", "truth/sync_error",
                   "|p - w|, follower minus leader angular velocity, at the end [rad/s].", _sync)
 
 
-@metric("sync_decay_rate_1_s", applies=_sync)
+@metric("sync_decay_rate_1_s", applies=_sync, uses=("truth/sync_error",))
 def sync_decay_rate_1_s(run) -> float:
     """Decay rate fitted to |p - w| from its peak down to 1e-4 of it [1/s]."""
     return fitted_decay_rate(run.recorder.time, sample_norms(run, "truth/sync_error"))

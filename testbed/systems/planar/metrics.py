@@ -54,6 +54,10 @@ def _has_ramp(s) -> bool:
             and (not m.disturbance_rad_s2 or m.disturbance_start_s <= m.ramp_start_s))
 
 
+# the figures (pole fit, settling time, steady lines, power peak) read these signals' history
+TRUTH = ("truth/angle", "truth/rate", "truth/control_torque")
+
+
 def _weights(run):
     p = run.scenario.stages["law"][1]
     return p.beta11, p.beta22, p.k
@@ -88,14 +92,14 @@ def _rel(a, b) -> float:
 
 # --- the design itself --------------------------------------------------------------------
 
-@metric("akor_root_kind", applies=_is_akor)
+@metric("akor_root_kind", applies=_is_akor, uses=())
 def root_kind(run) -> float:
     """+1 real, 0 double, -1 complex closed-loop roots (eq. 11: sign of b22 sqrt(k) - 2 sqrt(b11))."""
     b11, b22, k = _weights(run)
     return float(np.sign(b22 * np.sqrt(k) - 2.0 * np.sqrt(b11)))
 
 
-@metric("akor_eta_formula_1_s", applies=_is_akor)
+@metric("akor_eta_formula_1_s", applies=_is_akor, uses=())
 def eta_formula(run) -> float:
     """Stability margin eta from eq. 12 (real roots) or eq. 13 (double, complex) [1/s]."""
     return float(ak.stability_margin(*_weights(run)))
@@ -113,19 +117,19 @@ def _eta_sim(run) -> float:
     return _decay_figure(run, "eta", lambda t, x: fig.stability_margin_from_poles(fig.identify_poles(t, x)))
 
 
-@metric("akor_eta_sim_1_s", applies=_has_decay)
+@metric("akor_eta_sim_1_s", applies=_has_decay, uses=TRUTH)
 def eta_sim(run) -> float:
     """Stability margin from the simulated free decay: poles of a transition matrix fitted to it [1/s]."""
     return _eta_sim(run)
 
 
-@metric("akor_eta_rel_err", applies=_has_decay)
+@metric("akor_eta_rel_err", applies=_has_decay, uses=TRUTH)
 def eta_rel_err(run) -> float:
     """|eta_sim - eta(eq. 12/13)| / eta(eq. 12/13)."""
     return abs(_eta_sim(run) - eta_formula(run)) / eta_formula(run)
 
 
-@metric("akor_eta_over_eta_max", applies=_has_decay)
+@metric("akor_eta_over_eta_max", applies=_has_decay, uses=TRUTH)
 def eta_over_eta_max(run) -> float:
     """eta_sim / (k b11)^(1/4): at most 1, equal to 1 at the double root (eq. 17)."""
     b11, _, k = _weights(run)
@@ -136,20 +140,20 @@ def _settling_sim(run) -> float:
     return _decay_figure(run, "settling", lambda t, x: fig.settling_time(t, x[:, 0], final=0.0))
 
 
-@metric("akor_settling_time_s", applies=_has_offset_decay)
+@metric("akor_settling_time_s", applies=_has_offset_decay, uses=TRUTH)
 def settling_time_s(run) -> float:
     """Simulated 95 % settling time: last time |angle| > 5 % of x10 (definition before Fig. 2) [s]."""
     return _settling_sim(run)
 
 
-@metric("akor_settling_time_rel_err", applies=_has_offset_decay)
+@metric("akor_settling_time_rel_err", applies=_has_offset_decay, uses=TRUTH)
 def settling_time_rel_err(run) -> float:
     """|Tp_sim - Tp_exact| / Tp_exact, Tp_exact from the exact closed-loop response."""
     exact = ak.settling_time_95(*_weights(run))
     return abs(_settling_sim(run) - exact) / exact
 
 
-@metric("akor_settling_rule_error_rel", applies=_has_offset_decay)
+@metric("akor_settling_rule_error_rel", applies=_has_offset_decay, uses=TRUTH)
 def settling_rule_error_rel(run) -> float:
     """(3/eta - Tp_sim) / Tp_sim: the paper's rule Tp ~ 3/eta, claimed within +-35 %."""
     rule = ak.settling_time_estimate(eta_formula(run))
@@ -167,13 +171,13 @@ def _power_peak(run) -> float:
     return _cached(run, "power", compute)
 
 
-@metric("akor_power_peak_per_x10sq", applies=_has_offset_decay)
+@metric("akor_power_peak_per_x10sq", applies=_has_offset_decay, uses=TRUTH)
 def power_peak_per_x10sq(run) -> float:
     """Simulated peak actuator power per unit inertia and unit offset, max (tau/J) x2 / x10^2 [1/s^3]."""
     return _power_peak(run)
 
 
-@metric("akor_power_peak_rel_err", applies=_has_offset_decay)
+@metric("akor_power_peak_rel_err", applies=_has_offset_decay, uses=TRUTH)
 def power_peak_rel_err(run) -> float:
     """|P_peak,sim - P_peak| / P_peak, P_peak from eq. 20 (complex roots) or eq. 18 on the exact response."""
     return abs(_power_peak(run) - ak.peak_power(*_weights(run), 1.0)[1]) / ak.peak_power(*_weights(run), 1.0)[1]
@@ -191,13 +195,13 @@ def _er0_sim(run) -> np.ndarray:
     return _cached(run, "er0", compute, failed=np.full(2, np.nan))
 
 
-@metric("akor_static_angle_error_rad", applies=_has_constant)
+@metric("akor_static_angle_error_rad", applies=_has_constant, uses=TRUTH)
 def static_angle_error_rad(run) -> float:
     """Simulated steady angle under the constant m0 [rad]."""
     return float(_er0_sim(run)[0] * run.scenario.model.disturbance_rad_s2)
 
 
-@metric("akor_static_angle_error_rel_err", applies=_has_constant)
+@metric("akor_static_angle_error_rel_err", applies=_has_constant, uses=TRUTH)
 def static_angle_error_rel_err(run) -> float:
     """|dphi_sim - m0/sqrt(k b11)| / |m0/sqrt(k b11)| (text of eq. 17)."""
     b11, _, k = _weights(run)
@@ -205,13 +209,13 @@ def static_angle_error_rel_err(run) -> float:
     return abs(static_angle_error_rad(run) - ref) / abs(ref)
 
 
-@metric("akor_er0_rel_err", applies=_has_constant)
+@metric("akor_er0_rel_err", applies=_has_constant, uses=TRUTH)
 def er0_rel_err(run) -> float:
     """|ER0_sim - ER0| / |ER0|, ER0 = -(a*)^-1 c (eq. 15), both components."""
     return _rel(_er0_sim(run), ak.error_coefficients(*_weights(run))[0])
 
 
-@metric("akor_eta_max_from_static_error_rel_err", applies=_has_constant)
+@metric("akor_eta_max_from_static_error_rel_err", applies=_has_constant, uses=TRUTH)
 def eta_max_from_static_error_rel_err(run) -> float:
     """|sqrt(m0/dphi_sim) - (k b11)^(1/4)| / (k b11)^(1/4) (eq. 17)."""
     b11, _, k = _weights(run)
@@ -233,32 +237,32 @@ def _er1_sim(run) -> np.ndarray:
     return _cached(run, "er1", compute, failed=np.full(2, np.nan))
 
 
-@metric("akor_er1_angle_sim", applies=_has_ramp)
+@metric("akor_er1_angle_sim", applies=_has_ramp, uses=TRUTH)
 def er1_angle_sim(run) -> float:
     """ER1[0] measured under the ramp [s^2]."""
     return float(_er1_sim(run)[0])
 
 
-@metric("akor_er1_rate_sim", applies=_has_ramp)
+@metric("akor_er1_rate_sim", applies=_has_ramp, uses=TRUTH)
 def er1_rate_sim(run) -> float:
     """ER1[1] measured under the ramp [s]."""
     return float(_er1_sim(run)[1])
 
 
-@metric("akor_er1_rel_err", applies=_has_ramp)
+@metric("akor_er1_rel_err", applies=_has_ramp, uses=TRUTH)
 def er1_rel_err(run) -> float:
     """|ER1_sim - ER1| / |ER1|, ER1 = -(a*)^-2 c (eq. 15), both components."""
     return _rel(_er1_sim(run), ak.error_coefficients(*_weights(run))[1])
 
 
-@metric("akor_eq16_er1_rel_err", applies=_has_ramp)
+@metric("akor_eq16_er1_rel_err", applies=_has_ramp, uses=TRUTH)
 def eq16_er1_rel_err(run) -> float:
     """|ER1_sim - ER1(eq. 16 as printed)| / |ER1_sim|: large when the printed sign is wrong."""
     printed = ak.error_coefficients_as_printed(*_weights(run))[1]
     return _rel(printed, _er1_sim(run))
 
 
-@metric("akor_eq16_er1_sign_matches", applies=_has_ramp)
+@metric("akor_eq16_er1_sign_matches", applies=_has_ramp, uses=TRUTH)
 def eq16_er1_sign_matches(run) -> float:
     """1 if the printed eq. 16 has the simulated sign of ER1[0], else 0."""
     printed = ak.error_coefficients_as_printed(*_weights(run))[1]
