@@ -146,7 +146,9 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
             keep = None  # a reference that does not say what it reads sees everything
     reductions = Reductions(metrics.reductions(scenario))
     status, error = "ok", None
-    with trace.recording_to(out, live=live) if out is not None or live else contextlib.nullcontext() as rec:
+    footer = steps // trace_every <= trace.FOOTER_MAX_SAMPLES  # a long run: no footer (recording_to)
+    with (trace.recording_to(out, live=live, footer=footer) if out is not None or live
+          else contextlib.nullcontext()) as rec:
         writer = trace.TraceWriter(rec, scenario.name, n_ticks * sim.control_period_s, plant.scene(),
                                    envelope_rows=sim.envelope_rows) if rec else None
         stream = _ChunkStream(plant, reference, reductions, writer)

@@ -24,10 +24,21 @@ import json
 import os
 import re
 import uuid
+import warnings
 from pathlib import Path
 
 import numpy as np
-import rerun as rr
+
+# A trace written without Rerun's footer (a long run, `recording_to`) is our documented choice:
+# silence the warning Rerun prints for each such file, unless the user set RUST_LOG. Rerun reads
+# it once, when first imported; it is taken out again so that processes started later (a viewer)
+# do not inherit it.
+_SILENCED = "RUST_LOG" not in os.environ
+if _SILENCED:
+    os.environ["RUST_LOG"] = "warn,re_log_encoding::rrd::file_sink=error"
+import rerun as rr  # noqa: E402
+if _SILENCED:
+    del os.environ["RUST_LOG"]
 import rerun.blueprint as rrb
 
 from testbed.atomic_file import partial_beside, publish
@@ -38,6 +49,9 @@ from testbed.scene import hinge_poses
 APP_ID = "gyrodyne-testbed"
 RESULT_ENTITY = "run/result"
 TIMELINE = "sim_time"
+# A run of more trace samples than this is written without Rerun's footer (recording_to):
+# 10 000 s of cmg_open_loop at its 0.1 s trace period
+FOOTER_MAX_SAMPLES = 100_000
 SCALARS = "Scalars:scalars"
 NAME_MAX = 255  # bytes in one file or folder name (ext4 and most others)
 
@@ -223,13 +237,17 @@ class TraceWriter:
 
 
 @contextlib.contextmanager
-def recording_to(path, application: str = APP_ID, live: list | None = None):
+def recording_to(path, application: str = APP_ID, live: list | None = None, footer: bool = True):
     """A Rerun recording saved to a unique temporary file beside `path` (None: no file) and
     renamed onto it when the block ends (atomic): an interrupted write leaves nothing behind
     (the temporary file is removed on any exception, Ctrl-C and SIGTERM included), two writers
     of one path each leave a whole file, and a process killed outright (SIGKILL) leaves the
     temporary file `.<name>.<random>.partial`, readable up to its last flush. `live`: further
-    Rerun sinks (`rr.GrpcSink(url)` for a viewer) that receive the same stream."""
+    Rerun sinks (`rr.GrpcSink(url)` for a viewer) that receive the same stream. `footer`: end
+    the file with Rerun's footer, a manifest of every chunk for random access, which Rerun
+    keeps in memory until the end (about 200 B a chunk, a chunk per signal and flush): a long
+    run goes without it, so that its memory does not grow with its duration (README "Long
+    runs"; `rerun rrd optimize` adds it afterwards)."""
     partial, rec = None, None
     try:
         # the stream before the file: a signal sent once the .partial exists cannot land in the
@@ -241,7 +259,7 @@ def recording_to(path, application: str = APP_ID, live: list | None = None):
             path.parent.mkdir(parents=True, exist_ok=True)
             handle, partial = partial_beside(path)
             os.close(handle)
-            sinks.append(rr.FileSink(partial))
+            sinks.append(rr.FileSink(partial, write_footer=footer))
         rec.set_sinks(*sinks)  # before logging, so nothing is buffered for a viewer
         yield rec
         rec.flush()
@@ -436,14 +454,24 @@ def _summary_markdown(result: dict) -> str:
     return "\n".join(lines)
 
 
-def read_rrd(path: Path) -> dict:
-    """Read back a run: entities, time span, and the stored result (not recomputed)."""
+def _chunks(path: Path):
+    """The chunks of an `.rrd` in file order. A file without Rerun's footer (a long run, or one
+    killed before its end) is read by a scan of the whole file, as `stream` does anyway: Rerun's
+    warning that it has no manifest says nothing to our reader."""
     from rerun.chunk import RrdReader
 
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="RRD file has no footer")
+        reader = RrdReader(str(path))
+    return reader.stream()
+
+
+def read_rrd(path: Path) -> dict:
+    """Read back a run: entities, time span, and the stored result (not recomputed)."""
     entities: dict[str, int] = {}
     t_min, t_max = np.inf, -np.inf
     result = None
-    for chunk in RrdReader(str(path)).stream():
+    for chunk in _chunks(path):
         entity = str(chunk.entity_path)
         if entity.startswith("/__"):
             continue
@@ -464,10 +492,8 @@ def read_rrd(path: Path) -> dict:
 def read_signals(path: Path) -> Trace:
     """Every recorded signal of an `.rrd` written by `TraceWriter`, as a `Trace` (times to the
     nanosecond the file stores)."""
-    from rerun.chunk import RrdReader
-
     parts: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
-    for chunk in RrdReader(str(path)).stream():
+    for chunk in _chunks(path):
         entity = str(chunk.entity_path).lstrip("/")
         batch = chunk.to_record_batch()
         if SCALARS not in batch.schema.names or TIMELINE not in batch.schema.names:

@@ -383,3 +383,21 @@ def test_a_tail_window_equals_the_whole_history_one_when_the_run_ends_early_or_o
     else:
         with pytest.raises(ValueError, match="before its planned end"):
             few.value(mean)
+
+
+def test_a_long_run_is_written_without_the_footer_and_reads_back_whole(tmp_path, monkeypatch):
+    """Rerun's footer (a manifest of every chunk, kept in memory until the file ends: the memory
+    of a long run grew with it) ends a short run's file and not a long one's; both read back
+    with every sample."""
+    from testbed import read, run, trace
+    from testbed.scenario import load_scenario
+
+    scenario = load_scenario("cmg_open_loop", ["sim.duration_s=10", "reference=", "checks={}"])  # 101 samples
+    footer_magic = b"RRF2FOOT"
+    for limit, has_footer in ((trace.FOOTER_MAX_SAMPLES, True), (50, False)):
+        monkeypatch.setattr(trace, "FOOTER_MAX_SAMPLES", limit)
+        out = tmp_path / f"limit{limit}.rrd"
+        run(scenario, out)
+        assert out.read_bytes()[-64:].find(footer_magic) >= 0 if has_footer else footer_magic not in out.read_bytes()[-64:]
+        t, omega = read(out).trace["truth/omega"]
+        assert len(t) == 101 and t[-1] == pytest.approx(10.0)

@@ -6,8 +6,8 @@ estimate of x = w - (0, 0, Omega), eq. 4.1) and the momentum H an internal actua
 (body axes [N m s]; zero and constant for ideal body torques).
 
 - start-up, 0 <= t < t*: the body is uncontrolled, I w' = -w x (I w + H), H constant; the
-  linear observer z' = A z + l (y - C z) (eq. 3.1, or its form with H, `startup_model`) runs
-  from z = 0;
+  linear observer z' = A z + l (y - C z) (eq. 3.1, or with H the observer's
+  `startup_derivative`) runs from z = 0 (with H: from the body at rest, `start`);
 - closed loop, t >= t*: the law M = I K z (eq. 4.7); the observer
   z' = A z + l_c (y - C z) + F(z) + u with u = M / I (eq. 4.6); ideal torques act on the
   body directly, I w' = M - w x I w; an internal actuator that compensates w x H with the
@@ -15,8 +15,9 @@ estimate of x = w - (0, 0, Omega), eq. 4.1) and the momentum H an internal actua
   I w' = M - w x I w + (w_hat - w) x H (README "One gyro, no attitude sensor").
 
 y = p . w + b is the ideal gyro (plus a constant bias b), taken continuously. The observer's
-gains may follow the momentum held (`momentum_gain: measured`): its `startup_model(H)` and
-`closed_gain(H, z)` are called with the H and z of the state.
+model and gain may follow the momentum held (`momentum_gain: measured`): the observer's own
+`startup_derivative` and `closed_derivative` are integrated, with the H of the state (and the
+observer's information matrix Pi beside z).
 """
 
 from __future__ import annotations
@@ -24,14 +25,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from testbed.errors import InputError
-from testbed.observers.lebedev_observer import lebedev_nonlinearity
-
-
-def _cross(a, b):
-    """a x b of two 3-vectors (np.cross costs several times more on vectors this small)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
+from testbed.observers.lebedev_observer import cross3
 
 # Right-hand-side evaluations allowed for one solution (the paper's 1000 s take 16 000): a stiff
 # design (very fast poles, a huge gain) would otherwise keep DOP853 busy for hours.
@@ -45,45 +39,46 @@ def closed_loop_states(observer, gains, startup_s: float, omega0, momentum0, tim
     """The continuous closed loop's state at `times` (N,) -> (N, 9): columns w [rad/s], z
     [rad/s] and H [N m s], body axes.
 
-    `observer`: the LebedevObserver whose design is solved (inertia, Omega, C; the start-up
-    model `startup_model(H)` and the gain `closed_gain(H, z)` for the momentum H held); `gains`
+    `observer`: the LebedevObserver whose design is solved (inertia, Omega, C; its
+    `startup_derivative` and `closed_derivative` for the momentum H held); `gains`
     k of eq. 4.7 [1/s]; `internal`: torques come from an internal actuator holding H (else
     ideal external torques, H = 0). Solved with DOP853 in two legs split at t*.
     """
     inertia = observer.inertia
-    spin_rate, C, a, A = observer.spin_rate, observer.C, observer.a, observer.A
+    spin_rate, C = observer.spin_rate, observer.C
     k = np.asarray(gains, float)
     target = np.array([0.0, 0.0, spin_rate])
     y_offset = C[2] * spin_rate - bias            # y - C x - b = gamma Omega (eq. 4.3)
-    scale = np.concatenate([np.full(6, 1.0), np.full(3, np.max(inertia) * max(abs(spin_rate), 1e-300))])
     held = np.asarray(momentum0, float) if internal else None
-    startup_matrix, drift, startup_gain = observer.startup_model(held)   # the idle actuators hold H(0)
+    observer.start(held)
+    estimator0 = observer.state(held)             # z(0) (and, with measured momentum, Pi for H(0))
+    n = estimator0.size
+    scale = np.concatenate([np.full(3 + n, 1.0), np.full(3, np.max(inertia) * max(abs(spin_rate), 1e-300))])
+    if n > 3:   # the information matrix Pi: absolute tolerance RTOL of its size at t = 0
+        scale[6:3 + n] = RTOL * np.max(np.abs(estimator0[3:])) / ATOL_RAD_S
 
     def open_loop(_, s):
-        w, z, h = s[:3], s[3:6], s[6:]
-        dw = -_cross(w, inertia * w + h) / inertia
-        dz = startup_matrix @ z + drift + startup_gain * (C @ w - y_offset - C @ z)
-        return np.concatenate([dw, dz, np.zeros(3)])
+        w, estimator, h = s[:3], s[3:3 + n], s[3 + n:]
+        dw = -cross3(w, inertia * w + h) / inertia
+        d_estimator = observer.startup_derivative(estimator, C @ w - y_offset, held)   # H(0) held while idle
+        return np.concatenate([dw, d_estimator, np.zeros(3)])
 
     def closed_loop(t, s):
-        w, z, h = s[:3], s[3:6], s[6:]
-        u = k * z                                  # M / I, eq. 4.7
+        w, estimator, h = s[:3], s[3:3 + n], s[3 + n:]
+        u = k * estimator[:3]                      # M / I, eq. 4.7
         torque = inertia * u
         if internal:
-            w_hat = z + target
-            dh = -(torque + _cross(w_hat, h))
-            dw = (torque - _cross(w, inertia * w) + _cross(w_hat - w, h)) / inertia
-            try:
-                gain = observer.closed_gain(h, z)
-            except InputError as exc:   # the operating point crossed an unobservable state
-                raise ArithmeticError(f"the continuous loop loses observability at t = {t:.6g} s: "
-                                      f"{exc.reason}") from None
+            w_hat = estimator[:3] + target
+            dh = -(torque + cross3(w_hat, h))
+            dw = (torque - cross3(w, inertia * w) + cross3(w_hat - w, h)) / inertia
         else:
             dh = np.zeros(3)
-            dw = (torque - _cross(w, inertia * w)) / inertia
-            gain = observer.closed_gain()
-        dz = A @ z + gain * (C @ w - y_offset - C @ z) + lebedev_nonlinearity(a, z) + u
-        return np.concatenate([dw, dz, dh])
+            dw = (torque - cross3(w, inertia * w)) / inertia
+        try:
+            d_estimator = observer.closed_derivative(estimator, C @ w - y_offset, u, h if internal else None)
+        except np.linalg.LinAlgError as exc:   # the information matrix lost rank: nothing observed
+            raise ArithmeticError(f"the continuous loop loses observability at t = {t:.6g} s: {exc}") from None
+        return np.concatenate([dw, d_estimator, dh])
 
     evaluations = [0]
 
@@ -97,7 +92,7 @@ def closed_loop_states(observer, gains, startup_s: float, omega0, momentum0, tim
         return f
 
     times = np.asarray(times, float)
-    state = np.concatenate([np.asarray(omega0, float), np.zeros(3),
+    state = np.concatenate([np.asarray(omega0, float), estimator0.copy(),
                             np.asarray(momentum0, float) if internal else np.zeros(3)])
     out = np.empty((times.size, 9))
     t_end = float(times[-1])
@@ -111,7 +106,7 @@ def closed_loop_states(observer, gains, startup_s: float, omega0, momentum0, tim
                 raise ArithmeticError(f"the continuous closed loop could not be solved: {sol.message}")
             state = sol.y[:, -1]
             if mask.any():
-                out[mask] = sol.sol(times[mask]).T
+                out[mask] = sol.sol(times[mask])[np.r_[0:6, 3 + n:6 + n]].T
         elif mask.any():
-            out[mask] = state
+            out[mask] = state[np.r_[0:6, 3 + n:6 + n]]
     return out

@@ -21,23 +21,31 @@ it: whatever attitude the spin-up ends in, every end state is observable iff the
 misses the surface, r* = `observable_momentum_radius` (the nearest zero of the cubic along any
 ray from L = 0, which is observable whenever the rigid body is); r* is small (15.4 N m s for the
 flagship's spacecraft, below Ix Omega = 21.8) because the surface bends towards L = 0 off the
-z axis. The spin-up does not end in any attitude, though: L keeps its length and, nearly, its
-angle to the spin axis, and at the end its transverse part turns with the body, sweeping a
-circle. `check_momentum_observable` therefore asks for a margin det W(L) / det W(0) >= MIN_MARGIN
-on the circles within END_BAND_DEG of L's initial angle to z (`end_state_margin`); the
-measured tilt of the shipped scenario is in the README.
+z axis. The spin-up does not end in any attitude, though: L keeps its length, its angle to body
+z is where the idle start-up left it (the free gyrostat turns L in the body: `idle_polar_range`)
+give or take the closed loop's few degrees, and at the end its transverse part turns with the
+body, sweeping a circle. `check_momentum_observable` asks for the observer's information on
+those circles (`end_state_information`); the measured tilts are in the README.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.linalg import solve_continuous_lyapunov
 
 from testbed.errors import InputError
-from testbed.observers.lebedev_observer import gyrostat_error_matrix
+from testbed.math.information_filter import information_rate
+from testbed.observers.lebedev_observer import gyrostat_error_matrix, gyrostat_jacobian
 
 DIRECTIONS = 96   # polar angles of the direction grid (twice as many azimuths) for r*
-END_BAND_DEG = 15.0   # how far the spin-up may tilt the spin axis against L (measured: README)
-MIN_MARGIN = 0.1      # least det W / det W(L = 0) accepted: the gain grows about as its inverse
+# How far the closed loop tilts the spin axis against L after the idle start-up has turned L in
+# the body (measured 0.2 to 2.2 deg on six runs: README), and the spacing of the angles searched.
+CLOSED_LOOP_TILT_DEG = 5.0
+BAND_STEP_DEG = 2.5
+# least end-state information accepted, relative to the rigid body's: the gain l = Pi^-1 C may
+# grow about 10 times the paper's, whose noise amplification is already 13 (README "One gyro")
+MIN_INFORMATION = 0.1
 
 
 def observability_determinant(inertia, spin_rate, sensor_axis, total_momentum):
@@ -94,35 +102,82 @@ def observable_momentum_radius(inertia, spin_rate, sensor_axis, n: int = DIRECTI
     return float(first[i]) * scale, float(first[i]) * scale * u[proper][i]
 
 
-def end_state_margin(inertia, spin_rate, sensor_axis, total_momentum, band_deg: float = END_BAND_DEG):
-    """(m, L_worst): the least observability margin det W(L) / det W(0) over the end states of a
-    spin with total momentum `total_momentum` (body axes at t = 0), and the state where it is least.
+def end_state_information(inertia, spin_rate, sensor_axis, total_momentum, decay: float, polar_deg=None,
+                          samples: int = 720) -> float:
+    """The least information the measured-momentum observer holds at the end of a spin with total
+    momentum L (body axes at t = 0), relative to the paper's rigid body: min over one turn of
+    lambda_min(Pi(t)) / lambda_min(Pi_0).
 
-    At the end L keeps its length and its angle to the spin axis z while its transverse part turns
-    with the body: a circle. The spin-up may tilt the spin axis against L, so the circles within
-    `band_deg` of L's initial angle to z are all searched (module doc)."""
+    At the end the body spins at w = (0, 0, Omega) and L, fixed in inertial space, turns in the body
+    at -Omega about z at its polar angle (`polar_deg`, default L's own): the error matrix
+    J(t) = A + I^-1 [H(t) x], H = L(t) - I Omega e_z, is periodic, and the information filter's Pi
+    (testbed.math.information_filter) settles on the periodic solution of its equation, found here
+    by integrating it over one turn from the frozen solution and once more. The filter's gain is
+    l = Pi^-1 C, so lambda_min bounds how far the gain can grow; Pi_0 is the steady Pi of the
+    paper's pair (A, C), H = 0."""
+    inertia = np.asarray(inertia, float)
+    c = np.asarray(sensor_axis, float)
     L = np.asarray(total_momentum, float)
     size = float(np.linalg.norm(L))
-    polar0 = np.arccos(np.clip(L[2] / size, -1.0, 1.0))
-    band = np.radians(band_deg)
-    polar = np.linspace(max(0.0, polar0 - band), min(np.pi, polar0 + band), 31)
-    azimuth = np.linspace(0.0, 2 * np.pi, 360, endpoint=False)
-    p, a = np.meshgrid(polar, azimuth)
-    states = size * np.stack([np.sin(p) * np.cos(a), np.sin(p) * np.sin(a), np.cos(p)], -1).reshape(-1, 3)
-    margins = (observability_determinant(inertia, spin_rate, sensor_axis, states)
-               / observability_determinant(inertia, spin_rate, sensor_axis, np.zeros(3)))
-    i = int(np.argmin(margins))
-    return float(margins[i]), states[i]
+    polar = np.arccos(np.clip(L[2] / size, -1, 1)) if polar_deg is None else np.radians(polar_deg)
+    azimuth0 = np.arctan2(L[1], L[0])
+    spin = np.array([0.0, 0.0, spin_rate])
+    axial = inertia[2] * spin_rate
+
+    def jacobian(t):
+        phase = azimuth0 - spin_rate * t
+        held = size * np.array([np.sin(polar) * np.cos(phase), np.sin(polar) * np.sin(phase), np.cos(polar)])
+        return gyrostat_jacobian(inertia, spin, held - [0.0, 0.0, axial])
+
+    def steady(matrix):
+        shifted = matrix + decay * np.eye(3)
+        return solve_continuous_lyapunov(shifted.T, np.outer(c, c))
+
+    turn = 2 * np.pi / abs(spin_rate)
+    rhs = lambda t, p: information_rate(jacobian(t), p.reshape(3, 3), decay, c).ravel()  # noqa: E731
+    times = np.linspace(turn, 2 * turn, samples)
+    with np.errstate(under="ignore"):   # the step-size control's nextafter near 0 (harmless)
+        settle = solve_ivp(rhs, (0.0, turn), steady(jacobian(0.0)).ravel(), rtol=1e-8, atol=1e-12 * size)
+        sol = solve_ivp(rhs, (turn, 2 * turn), settle.y[:, -1], rtol=1e-8, atol=1e-12 * size, t_eval=times)
+    least = min(np.linalg.eigvalsh(p.reshape(3, 3))[0] for p in sol.y.T)
+    rigid = np.linalg.eigvalsh(steady(gyrostat_jacobian(inertia, spin, np.zeros(3))))[0]
+    return float(least / rigid)
 
 
-def check_momentum_observable(inertia, spin_rate, sensor_axis, total_momentum, field: str) -> None:
-    """Refuse a total momentum whose end states one gyro observes with a margin below MIN_MARGIN."""
-    if float(np.linalg.norm(total_momentum)) == 0.0:
+def idle_polar_range(inertia, momentum, omega0, duration: float) -> tuple[float, float]:
+    """(least, largest) angle [deg] between the total momentum L = I w + H and body z while the body
+    idles for `duration` [s] from w(0) = `omega0` with the actuators holding H: the free gyrostat,
+    I w' = -w x (I w + H), solved with DOP853 (L keeps its length and turns in the body)."""
+    inertia = np.asarray(inertia, float)
+    held = np.asarray(momentum, float)
+    times = np.linspace(0.0, duration, max(2, int(duration) + 1))
+    with np.errstate(under="ignore"):
+        sol = solve_ivp(lambda t, w: -np.cross(w, inertia * w + held) / inertia, (0.0, max(duration, 1e-9)),
+                        np.asarray(omega0, float), method="DOP853", rtol=1e-9, atol=1e-15, t_eval=times)
+    L = inertia[:, None] * sol.y + held[:, None]
+    polar = np.degrees(np.arccos(np.clip(L[2] / np.linalg.norm(L, axis=0), -1.0, 1.0)))
+    return float(polar.min()), float(polar.max())
+
+
+def check_momentum_observable(inertia, spin_rate, sensor_axis, total_momentum, decay: float, field: str,
+                              polar_range_deg: tuple[float, float] | None = None) -> None:
+    """Refuse a total momentum L at whose end states the observer would hold less than
+    MIN_INFORMATION of the rigid body's information (`end_state_information`), on the circles at
+    the polar angles the spin can end at: `polar_range_deg` (where the idle start-up takes L,
+    `idle_polar_range`) widened by CLOSED_LOOP_TILT_DEG, or L's own angle +- that."""
+    L = np.asarray(total_momentum, float)
+    size = float(np.linalg.norm(L))
+    if size == 0.0:
         return
-    margin, worst = end_state_margin(inertia, spin_rate, sensor_axis, total_momentum)
-    if margin < MIN_MARGIN:
-        size = float(np.linalg.norm(total_momentum))
-        raise InputError(field, f"total angular momentum L = {np.array2string(np.asarray(total_momentum), precision=4)} "
-                                f"N m s: one gyro cannot observe the spin it ends in (det W / det W(L = 0) = "
-                                f"{margin:.3g} < {MIN_MARGIN} at L = {np.array2string(worst, precision=3)}, "
-                                f"|L| = {size:.4g})")
+    if polar_range_deg is None:
+        own = np.degrees(np.arccos(np.clip(L[2] / size, -1.0, 1.0)))
+        polar_range_deg = (own, own)
+    low = max(0.0, polar_range_deg[0] - CLOSED_LOOP_TILT_DEG)
+    high = min(180.0, polar_range_deg[1] + CLOSED_LOOP_TILT_DEG)
+    polars = np.linspace(low, high, max(3, int(np.ceil((high - low) / BAND_STEP_DEG)) + 1))
+    least, polar = min((end_state_information(inertia, spin_rate, sensor_axis, L, decay, p), p) for p in polars)
+    if least < MIN_INFORMATION:
+        raise InputError(field, f"total angular momentum L = {np.array2string(L, precision=4)} N m s: one gyro cannot "
+                                f"observe the spin it ends in (the observer's information falls to {least:.3g} of "
+                                f"the rigid body's, below {MIN_INFORMATION}, with L at {polar:.1f} deg to the spin "
+                                f"axis, |L| = {size:.4g})")

@@ -14,11 +14,16 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.math.validation import check_unit_vector, principal_moments
+from testbed.math.information_filter import filter_gain, gathered_information, information_rate
 from testbed.math.rk4 import rk4_steps
 
 # Tolerance for "this factor vanishes" in the observability test, relative to the size
 # of the quantities it is built from (inputs are floats from a scenario file).
 _REL_ZERO = 1e-12
+# How long (in units of 1/a) the information filter's start pair is taken to have been seen:
+# ten forgetting times 1/2a (the steady information when it exists; a shorter start, 1.5,
+# gave gains ten times larger in the first seconds and a start-up transient of ~20 deg/s)
+INITIAL_HORIZON_RATES = 5.0
 
 
 def lebedev_matrices(inertia, spin_rate):
@@ -144,16 +149,13 @@ def observer_gain(inertia, spin_rate, sensor_axis, poles):
     return ackermann_gain(A, sensor_axis, poles)
 
 
-def ackermann_gain(A, sensor_axis, poles, desired=None):
+def ackermann_gain(A, sensor_axis, poles):
     """l with eig(A - l C) = poles for any observable 3x3 A and C = p' (the T^-1 L construction).
 
     The same formulas as `observer_gain` (Lebedev 1976, text after eq. 4.7) with A general;
     raises InputError("sensor.axis", ...) when det T = -det W vanishes (pair unobservable).
-    `desired`: theta's coefficients np.poly(poles).real, when the caller places the same
-    (already checked) poles again and again.
     """
-    if desired is None:
-        desired = np.poly(check_observer_poles(poles)).real
+    desired = np.poly(check_observer_poles(poles)).real
     A = np.asarray(A, dtype=float)
     c = np.asarray(sensor_axis, dtype=float)
     alpha = np.poly(A).real  # (1, alpha1, alpha2, alpha3)
@@ -188,6 +190,28 @@ def gyrostat_error_matrix(inertia, spin_rate, momentum):
                       np.stack([h[..., 2], zero, -h[..., 0]], -1),
                       np.stack([-h[..., 1], h[..., 0], zero], -1)], -2)
     return A + cross / principal_moments("body.inertia", inertia)[:, None]
+
+
+def cross3(a, b):
+    """a x b of two 3-vectors (np.cross costs several times more on vectors this small)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+def gyrostat_jacobian(moments, w, momentum) -> np.ndarray:
+    """d/dw of w' = I^-1 ((I w + H) x w), the free body holding internal momentum H:
+    I^-1 ([(I w + H) x] - [w x] I), `moments` = (Ix, Iy, Iz) [kg m^2], w [rad/s], H [N m s].
+
+    At w = (0, 0, Omega) it is `gyrostat_error_matrix` (A + I^-1 [H x]). Once the loop is closed
+    it is also the linearisation of the observer error: the body feels M - w x I w + H x e and
+    eq. 4.6 models M - w_hat x I w_hat, so e' = J(w_hat, H) e - l C e + O(e^2) (README
+    "Non-zero total momentum").
+    """
+    moments = np.asarray(moments, float)
+    w = np.asarray(w, float)
+    L = moments * w + np.asarray(momentum, float)
+    return np.array([[0.0, -L[2] + w[2] * moments[1], L[1] - w[1] * moments[2]],
+                     [L[2] - w[2] * moments[0], 0.0, -L[0] + w[0] * moments[2]],
+                     [-L[1] + w[1] * moments[0], L[0] - w[0] * moments[1], 0.0]]) / moments[:, None]
 
 
 def lebedev_torque(inertia, k, z):
@@ -226,96 +250,153 @@ class LebedevObserver:
         self.spin_rate = float(spin_rate)
         self.C = check_unit_vector(sensor_axis, "sensor.axis")
         self.poles = check_observer_poles(poles)
-        self._desired = np.poly(self.poles).real   # theta(s), placed again every period with measured momentum
         self.l = observer_gain(self.inertia, self.spin_rate, self.C, poles)
         # Closed-loop gain: the paper's l, or l for A + I^-1 [H x] when the actuators hold H.
         self.l_closed = self.l if design_momentum is None else ackermann_gain(
             gyrostat_error_matrix(self.inertia, self.spin_rate, design_momentum), self.C, poles)
-        # measured_momentum: both gains follow the momentum H the actuators report (README
-        # "Non-zero total momentum"); without it H is ignored, as in the paper
+        # measured_momentum: the model and the gain follow the momentum H the actuators report
+        # (README "Non-zero total momentum"); without it H is ignored, as in the paper
         self.measured_momentum = bool(measured_momentum)
+        # the information filter's rate a: its steady poles for a torque-free spin sit 2a left of
+        # eig(A) (testbed.math.information_filter), so half the slowest wanted rate
+        self.decay = float(np.min(-self.poles.real)) / 2
+        self.info: np.ndarray | None = None
         self.a, self.A = lebedev_matrices(self.inertia, self.spin_rate)
         if not max_substep > 0:
             raise InputError("observer.max_substep", f"must be > 0, got {max_substep}")
         self.max_substep = float(max_substep)
         self.z = np.zeros(3)
-        self._startup_cache: tuple = (None, (self.A, np.zeros(3), self.l))
-
-    def gain_for(self, momentum) -> np.ndarray:
-        """l placing eig(A + I^-1 [H x] - l C) at the observer's poles for the momentum H held
-        [N m s, body axes]; InputError("sensor.axis", ...) when that pair is unobservable."""
-        return ackermann_gain(gyrostat_error_matrix(self.inertia, self.spin_rate, momentum), self.C, self.poles,
-                              self._desired)
-
-    def closed_gain(self, momentum=None, z=None):
-        """The gain l_c of the closed-loop observer (eq. 4.6): fixed, or, with measured momentum,
-        re-placed for the momentum the actuators will hold at the wanted spin, H + I z [N m s]:
-        the H they hold now plus the estimated deviation x = z the law still has to remove
-        (total momentum I w + H is conserved, so at w = (0, 0, Omega) they hold H + I x). It is
-        the operating point of the final spin, whose transverse part turns with the body when
-        the total momentum is not along z (README "Non-zero total momentum")."""
-        if self.measured_momentum and momentum is not None:
-            return self.gain_for(np.asarray(momentum, float) + self.inertia * (self.z if z is None else z))
-        return self.l_closed
 
     def startup_model(self, momentum=None):
-        """(A_s, d, l_s) of the linear start-up observer z' = A_s z + d + l_s (y_dev - C z).
+        """(A_s, d) of the start-up model z' = A_s z + d (+ F(z) with measured momentum).
 
-        The paper's (3.1): A, 0, l. With measured momentum the idle actuators hold H fixed in
-        the body, which then obeys I w' = -w x I w + H x w exactly; H x w = H x x + Omega H x e_z
-        is linear in x, so the start-up model gains A_s = A + I^-1 [H x] (gyrostat_error_matrix)
-        and the drift d = Omega I^-1 (H x e_z), with l_s placed for A_s (our extension).
+        The paper's (3.1): A, 0. With measured momentum the idle actuators hold H fixed in the
+        body, which then obeys I w' = -w x I w + H x w exactly; H x w = H x x + Omega H x e_z
+        is linear in x, so the model gains A_s = A + I^-1 [H x] (gyrostat_error_matrix) and the
+        drift d = Omega I^-1 (H x e_z) (our extension).
         """
         if not self.measured_momentum or momentum is None:
-            return self.A, np.zeros(3), self.l
-        key = tuple(np.asarray(momentum, float))
-        if self._startup_cache[0] != key:  # H is constant while the actuators idle: place once
-            h = np.asarray(momentum, float)
-            drift = self.spin_rate * np.array([h[1], -h[0], 0.0]) / self.inertia
-            self._startup_cache = (key, (gyrostat_error_matrix(self.inertia, self.spin_rate, h), drift,
-                                         self.gain_for(h)))
-        return self._startup_cache[1]
+            return self.A, np.zeros(3)
+        h = np.asarray(momentum, float)
+        drift = self.spin_rate * np.array([h[1], -h[0], 0.0]) / self.inertia
+        return gyrostat_error_matrix(self.inertia, self.spin_rate, h), drift
+
+    def start(self, momentum=None):
+        """The observer's state at the start of the start-up phase: z = 0 (eq. 3.1) or, with
+        measured momentum H, the idle body taken at rest, w_hat = 0 (z = -Omega e_z: the body
+        has not been spun up, and the linearisation there, I^-1 [H x], is the free gyrostat's
+        at small rates), with the information Pi the filter gathers from nothing over
+        INITIAL_HORIZON_RATES / a seconds of that pair held
+        (testbed.math.information_filter.gathered_information; positive definite iff the
+        pair is observable)."""
+        self.reset()
+        if self.measured_momentum and momentum is not None:
+            self.z = np.array([0.0, 0.0, -self.spin_rate])
+            matrix = gyrostat_jacobian(self.inertia, np.zeros(3), momentum)
+            self.info = gathered_information(matrix, self.decay, self.C, INITIAL_HORIZON_RATES / self.decay)
+
+    def _filtered(self, state, model, y_dev, momentum):
+        """d/dt of (z, Pi) for the information filter on the gyrostat's linearisation at the
+        estimate, J(w_hat, H) (module testbed.math.information_filter): z' = model + l (y_dev - C z),
+        l = Pi^-1 C."""
+        z, info = state[:3], state[3:].reshape(3, 3)
+        jacobian = gyrostat_jacobian(self.inertia, z + [0.0, 0.0, self.spin_rate], momentum)
+        gain = filter_gain(info, self.C)
+        return np.concatenate([model + gain * (y_dev - self.C @ z),
+                               information_rate(jacobian, info, self.decay, self.C).ravel()])
+
+    def startup_derivative(self, state, y_dev, momentum=None):
+        """d/dt of the observer state during start-up (the body uncontrolled).
+
+        Paper (eq. 3.1): z' = A z + l (y_dev - C z). With measured momentum H the model is the free
+        gyrostat itself, z' = A_H z + d + F(z) (`startup_model`; exact, not linearised about the
+        wanted spin the idle body is far from), and the gain is the information filter's for its
+        linearisation at the estimate (README "Non-zero total momentum"); the state is (z, Pi)."""
+        z = state[:3]
+        matrix, drift = self.startup_model(momentum)
+        if not self.measured_momentum or momentum is None:
+            return matrix @ z + drift + self.l * (y_dev - self.C @ z)
+        return self._filtered(state, matrix @ z + drift + lebedev_nonlinearity(self.a, z), y_dev, momentum)
+
+    def closed_derivative(self, state, y_dev, u, momentum=None, compensated=None):
+        """d/dt of the observer state once the loop is closed: z' = A z + l (y_dev - C z) + F(z) + u
+        (Lebedev 1976, eq. 4.6), l the fixed `l_closed`, or with measured momentum H the information
+        filter's gain for J(w_hat, H), the linearisation of the error dynamics (README "Non-zero
+        total momentum"; the state is then (z, Pi)).
+
+        `compensated` (measured momentum): the gyroscopic torque w_k x H_k [N m] the actuators were
+        commanded to cancel when u was set, held since; the bus then feels M + w_k x H_k - w x H
+        (I w' = -w x (I w + H) - H', H' = -(M + w_k x H_k)), whose estimate at w_hat adds
+        (w_k x H_k - w_hat x H) / I to the model. Without it the compensation is taken to follow
+        w_hat continuously (the continuous loop)."""
+        z = state[:3]
+        if not self.measured_momentum or momentum is None:
+            return self.A @ z + self.l_closed * (y_dev - self.C @ z) + lebedev_nonlinearity(self.a, z) + u
+        model = self.A @ z + lebedev_nonlinearity(self.a, z) + u
+        if compensated is not None:
+            model = model + (compensated - cross3(z + [0.0, 0.0, self.spin_rate], momentum)) / self.inertia
+        return self._filtered(state, model, y_dev, momentum)
+
+    def state(self, momentum=None) -> np.ndarray:
+        """The observer's state: z, with measured momentum followed by Pi (row-major; `start`
+        with the first momentum given when it was not started with one)."""
+        if not self.measured_momentum or momentum is None:
+            return self.z
+        if self.info is None:
+            self.start(momentum)
+        return np.concatenate([self.z, self.info.ravel()])
 
     def reset(self, z0=None):
-        """Set the estimate (default z = 0, as at the start of the start-up phase, eq. 3.1)."""
+        """Set the estimate (default z = 0, as at the start of the start-up phase, eq. 3.1); the
+        information filter starts again (`start`) at the next momentum given."""
         self.z = np.zeros(3) if z0 is None else np.asarray(z0, dtype=float).copy()
+        self.info = None
 
-    def _advance(self, rhs_of_y, y, dt, y_end=None):
+    def _advance(self, rhs_of_y, state, y, dt, y_end=None):
         if not dt > 0:
             raise InputError("control.period", f"must be > 0, got {dt}")
         y_dev = float(y) - self.C[2] * self.spin_rate
         n = max(1, int(np.ceil(dt / self.max_substep - 1e-9)))
         if y_end is None:  # zero-order hold: y over the interval is the sample at its start
-            rhs = lambda s, z: rhs_of_y(z, y_dev)  # noqa: E731
+            rhs = lambda s, z: rhs_of_y(z, y_dev, s)  # noqa: E731
         else:              # first-order hold: y moves linearly to the sample at its end
             slope = float(y_end) - float(y)
-            rhs = lambda s, z: rhs_of_y(z, y_dev + s * slope)  # noqa: E731
-        self.z = rk4_steps(rhs, self.z, dt, n)
+            rhs = lambda s, z: rhs_of_y(z, y_dev + s * slope, s)  # noqa: E731
+        state = rk4_steps(rhs, state, dt, n)
+        self.z = state[:3]
+        if state.size > 3:
+            self.info = state[3:].reshape(3, 3)
         return self.z
 
     def startup_step(self, y, dt, y_end=None, momentum=None):
         """Advance the start-up observer z' = A z + l (y_dev - C z) by dt (Lebedev 1976, eq. 3.1).
 
         No F(z) and no u: the body is uncontrolled and still far from the spin that F is
-        expanded about, and with F(z) the estimate stalls (SEEDS §000: ~6 deg/s error
-        against ~0.2 deg/s without it). `y` is the sample at the start of the interval;
-        with `y_end` (the sample at its end) y is interpolated linearly between them.
-        With measured momentum, A, l and a drift follow the momentum H held (`startup_model`).
+        expanded about, and with F(z) and the paper's fixed gain the estimate stalls (SEEDS §000:
+        ~6 deg/s error against ~0.2 deg/s without it). `y` is the sample at the start of the
+        interval; with `y_end` (the sample at its end) y is interpolated linearly between them.
+        With measured momentum H: the free gyrostat and the information filter
+        (`startup_derivative`).
         """
-        matrix, drift, gain = self.startup_model(momentum)
-        C = self.C
-        return self._advance(lambda z, y_dev: matrix @ z + drift + gain * (y_dev - C @ z), y, dt, y_end)
+        return self._advance(lambda state, y_dev, _: self.startup_derivative(state, y_dev, momentum),
+                             self.state(momentum), y, dt, y_end)
 
-    def step(self, y, u, dt, y_end=None, momentum=None):
+    def step(self, y, u, dt, y_end=None, momentum=None, momentum_rate=None, compensated=None):
         """Advance z' = A z + l (y_dev - C z) + F(z) + u by dt (Lebedev 1976, eq. 4.6).
 
         u = M / I [rad/s^2] is the input applied over this period; `y`, `y_end` as in
-        `startup_step`; l is `closed_gain(momentum)`, held over the period.
+        `startup_step`; the gain and `compensated` as in `closed_derivative`, with the momentum
+        H(s) = H + s dt H' moving at the held rate `momentum_rate` over the interval (H held
+        when it is not given).
         """
         u = np.asarray(u, dtype=float)
-        gain, A, C, a = self.closed_gain(momentum), self.A, self.C, self.a
-        return self._advance(lambda z, y_dev: A @ z + gain * (y_dev - C @ z) + lebedev_nonlinearity(a, z) + u,
-                             y, dt, y_end)
+        if momentum is None or momentum_rate is None:
+            rhs = lambda state, y_dev, _: self.closed_derivative(state, y_dev, u, momentum, compensated)  # noqa: E731
+        else:
+            start, change = np.asarray(momentum, float), dt * np.asarray(momentum_rate, float)
+            rhs = lambda state, y_dev, s: self.closed_derivative(state, y_dev, u, start + s * change,  # noqa: E731
+                                                                 compensated)
+        return self._advance(rhs, self.state(momentum), y, dt, y_end)
 
     def omega_estimate(self):
         """Estimated body rate w = z + (0, 0, Omega) [rad/s] (inverse of eq. 4.1)."""

@@ -29,13 +29,21 @@ from typing import Literal
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.observers.lebedev_momentum import check_momentum_observable
-from testbed.observers.lebedev_observer import LebedevObserver, check_gains, check_observer_poles, lebedev_torque
+from testbed.observers.lebedev_momentum import check_momentum_observable, idle_polar_range
+from testbed.observers.lebedev_observer import (
+    LebedevObserver,
+    check_gains,
+    check_observer_poles,
+    cross3,
+    lebedev_torque,
+)
 from testbed.pipeline import require_free_body, stage
 from testbed.schema import join, param
 
 # Relative size of products of inertia the principal-axis model (eq. 1.2) may ignore.
 PRINCIPAL_AXIS_TOLERANCE = 1e-3
+# Least eigenvalue of the filter's start information, relative to its largest, taken as non-zero.
+START_RCOND = 1e-9
 
 
 @contextlib.contextmanager
@@ -171,26 +179,31 @@ class LebedevEstimator:
             self.observer = self.build_observer(params, ctx.inertia, law.design["spin_rate"],
                                                 sensor.design["sensing_axis"])
         if self.momentum_key is not None:
-            self._check_momentum(ctx)
+            self._check_momentum(ctx, params.startup_s)   # and starts the observer with the H held
         self.startup = params.startup_s
         self.linear_hold = params.measurement_hold == "linear"
         self.l = self.observer.l
         self._t_prev: float | None = None
         self._y_prev = 0.0
+        self._command: tuple | None = None   # the cluster's held command (measured momentum)
 
-    def _check_momentum(self, ctx) -> None:
-        """Refuse, before the run, momentum one gyro cannot work with: the start-up pair at the
-        H(0) the idle cluster holds, and any end state of the spin with the total momentum L
+    def _check_momentum(self, ctx, startup: float) -> None:
+        """Refuse, before the run, momentum one gyro cannot work with: an idle cluster whose H(0)
+        leaves the body at rest unobservable (the filter's start information singular), and a
+        total momentum L whose end states the filter would hold too little information about
         (testbed.observers.lebedev_momentum)."""
         held = np.asarray(ctx.internal_momentum, float)
         obs = self.observer
-        try:
-            obs.startup_model(held)
-        except InputError as exc:
+        obs.start(held)
+        least, largest = np.linalg.eigvalsh(obs.info)[[0, -1]]
+        if not least > START_RCOND * largest:
             raise InputError("model", f"the momentum the actuators hold at t = 0, H = "
-                                      f"{np.array2string(held, precision=4)} N m s: {exc.reason}") from None
+                                      f"{np.array2string(held, precision=4)} N m s: one gyro cannot observe the idle "
+                                      f"body at rest (I^-1 [H x], C unobservable: information {least:.3g} of "
+                                      f"{largest:.3g})")
         total = np.asarray(ctx.inertia, float) @ np.asarray(ctx.initial.omega, float) + held
-        check_momentum_observable(obs.inertia, obs.spin_rate, obs.C, total, "initial")
+        idle = idle_polar_range(obs.inertia, held, ctx.initial.omega, startup)
+        check_momentum_observable(obs.inertia, obs.spin_rate, obs.C, total, obs.decay, "initial", idle)
 
     @staticmethod
     def build_observer(params: LebedevObserverParams, inertia, spin_rate: float, sensing_axis) -> LebedevObserver:
@@ -199,6 +212,19 @@ class LebedevEstimator:
         return LebedevObserver(principal_axes_moments(inertia), spin_rate, sensing_axis, params.poles,
                                params.max_substep_s, params.design_momentum_nms,
                                measured_momentum=params.momentum_gain == "measured")
+
+    def _held_command(self, momentum, torque):
+        """(H at the interval's start, H', w_k x H_k) of the command the cluster holds (measured
+        momentum): issued at the last control instant t_k from the momentum H_k it reports and the
+        estimate w_k this stage gave then, it keeps H' = -(M + w_k x H_k) until the next one
+        (testbed.stages.steering), so H(t) = H_k + (t - t_k) H'. A command is new when its H_k or
+        M differs from the one held (at the sensor's faster rate the same command comes again)."""
+        held = self._command
+        if held is None or not (np.array_equal(momentum, held[0]) and np.array_equal(torque, held[1])):
+            compensated = cross3(self.observer.omega_estimate(), momentum)   # w_k: this stage's output at t_k
+            held = self._command = (momentum, torque, -(torque + compensated), compensated, self._t_prev)
+        momentum, _, rate, compensated, issued = held
+        return momentum + (self._t_prev - issued) * rate, rate, compensated
 
     def estimate(self, t, measurement, command):
         y = float(np.asarray(measurement["y"])[0])
@@ -211,7 +237,11 @@ class LebedevEstimator:
                 self.observer.startup_step(self._y_prev, h, y_end, held)      # eq. 3.1, body uncontrolled
             else:
                 torque = np.asarray(command.get(self.torque_key, np.zeros(3)), float)
-                self.observer.step(self._y_prev, torque / self.inertia, h, y_end, held)  # eq. 4.6, u = M / I
+                if held is None:
+                    self.observer.step(self._y_prev, torque / self.inertia, h, y_end)  # eq. 4.6, u = M / I
+                else:
+                    start, rate, compensated = self._held_command(np.asarray(held, float), torque)
+                    self.observer.step(self._y_prev, torque / self.inertia, h, y_end, start, rate, compensated)
         self._t_prev, self._y_prev = t, y
         obs = self.observer
         innovation = y - obs.C[2] * obs.spin_rate - obs.C @ obs.z
