@@ -140,8 +140,8 @@ def _side_view(path: np.ndarray) -> np.ndarray:
 class TraceWriter:
     """A run streamed to a Rerun recording chunk by chunk (`write`), then its result (`finish`).
 
-    Each chunk goes out with `send_columns` on `sim_time` and its flush is started, so that a
-    file sink holds every chunk but the one in flight if the process dies (SIGKILL included); until `finish`
+    Each chunk goes out with `send_columns` on `sim_time` and is flushed, so that a file sink
+    holds every chunk written so far if the process dies (SIGKILL included); until `finish`
     the stored `run/result` says the run did not finish. `scene` may hold `bus_half_size` (3,)
     [m] and a `momentum_scale` [m per N m s] for the arrows, `body_momenta` {signal key: entity
     name} of body-frame momenta to draw on the bus, and `units` {signal name: unit} beside UNITS.
@@ -166,9 +166,8 @@ class TraceWriter:
             _write_scene_static(rec, scene)
 
     def write(self, chunk) -> None:
-        """Send one chunk's signals (and the 3D scene at its samples), then start its flush."""
+        """Send one chunk's signals (and the 3D scene at its samples), then flush it out."""
         rec = self.rec
-        rec.flush()  # the last chunk written, if still in flight: at most one chunk is held in memory
         new = [key for key in chunk.signals if key not in self.keys]
         if self.envelope_rows > 1:
             self._write_envelope(chunk, new)
@@ -190,10 +189,7 @@ class TraceWriter:
             space = (self.scene or {}).get("momentum_space")
             path = chunk.signals.get(space["path"]) if space else None
             rec.send_blueprint(_blueprint(self.keys, self.end_time, self.scene, path))
-        # started, not waited for: Rerun's writer thread encodes and writes the chunk while the
-        # run goes on (on a second core); the next write waits for it, so the file holds every
-        # chunk but the one in flight
-        rec.flush(timeout_sec=0)
+        rec.flush()
 
     def _write_envelope(self, chunk, new: list[str]) -> None:
         """Each signal's envelope over the chunk's blocks as `<key>/min` and `<key>/max`."""
