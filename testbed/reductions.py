@@ -145,6 +145,18 @@ def _exact_sums(sums, values: np.ndarray):
     return [math.fsum(itertools.chain((total,), column.tolist())) for total, column in zip(sums, columns)]
 
 
+def _summed(state, values: np.ndarray):
+    """(column sums, row count) of a mean so far (None: no rows yet) with `values` added (_exact_sums)."""
+    sums, count = state or (None, 0)
+    return _exact_sums(sums, values), count + len(values)
+
+
+def _mean_of(state) -> np.ndarray:
+    """The column means a `_summed` state holds; NaN without rows."""
+    sums, count = state or (None, 0)
+    return np.array(sums) / count if count else np.array([np.nan])
+
+
 @dataclass(frozen=True)
 class Mean:
     """Column means of rows(chunk) over every row of the run (np.mean(v, axis=0)); NaN without rows."""
@@ -152,17 +164,16 @@ class Mean:
     rows: Callable
 
     def start(self):
-        return None, 0
+        return None
 
     def update(self, state, chunk: Chunk):
         values = self.rows(chunk)
         if values is None or len(values) == 0:
             return state
-        return _exact_sums(state[0], values), state[1] + len(values)
+        return _summed(state, values)
 
     def result(self, state) -> np.ndarray:
-        sums, count = state
-        return np.array(sums) / count if count else np.array([np.nan])
+        return _mean_of(state)
 
 
 @dataclass(frozen=True)
@@ -288,12 +299,10 @@ class TailMean(_Tail):
     are kept as in Mean."""
 
     def _aggregate(self, state, values):
-        sums, count = state or (None, 0)
-        return _exact_sums(sums, values), count + len(values)
+        return _summed(state, values)
 
     def _finish(self, state):
-        sums, count = state or (None, 0)
-        return np.array(sums) / count if count else np.array([np.nan])
+        return _mean_of(state)
 
 
 @dataclass(frozen=True)
