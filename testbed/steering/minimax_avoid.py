@@ -256,7 +256,7 @@ def minimax_avoid_steering(J, h, Hdot, beta_rate_max, *, column_derivative=None,
         slope = 0.0
     target = t_star
     if preference is not None and preference_gain > 0.0:
-        level = max(min(peak_so_far, beta_rate_max), rate_fraction * beta_rate_max if rate_fraction > 0.0 else 0.0)
+        level = max(min(peak_so_far, beta_rate_max), rate_fraction * beta_rate_max)
         band_lo, band_hi = budget_interval(x, n, t_star, level)
         target = min(max(t_star + preference_null_rate(*preference, n, preference_gain), band_lo), band_hi)
     t, met = barrier_choice(target, t_lo, t_hi, slope, offset)
