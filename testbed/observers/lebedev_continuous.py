@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from testbed.observers.lebedev_observer import cross3
+from testbed.math.cross import cross3
 
 # Right-hand-side evaluations allowed for one solution (the paper's 1000 s take 16 000): a stiff
 # design (very fast poles, a huge gain) would otherwise keep DOP853 busy for hours.

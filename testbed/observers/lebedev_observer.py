@@ -14,6 +14,7 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.math.validation import check_unit_vector, principal_moments
+from testbed.math.cross import cross3
 from testbed.math.information_filter import filter_gain, gathered_information, information_rate
 from testbed.math.rk4 import rk4_steps
 
@@ -192,11 +193,6 @@ def gyrostat_error_matrix(inertia, spin_rate, momentum):
     return A + cross / principal_moments("body.inertia", inertia)[:, None]
 
 
-def cross3(a, b):
-    """a x b of two 3-vectors (np.cross costs several times more on vectors this small)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
 def gyrostat_jacobian(moments, w, momentum) -> np.ndarray:
     """d/dw of w' = I^-1 ((I w + H) x w), the free body holding internal momentum H:
     I^-1 ([(I w + H) x] - [w x] I), `moments` = (Ix, Iy, Iz) [kg m^2], w [rad/s], H [N m s].
@@ -266,6 +262,7 @@ class LebedevObserver:
             raise InputError("observer.max_substep", f"must be > 0, got {max_substep}")
         self.max_substep = float(max_substep)
         self.z = np.zeros(3)
+        self._startup_cache: tuple = (None, None)  # (H, startup_model(H)): H stays while the actuators idle
 
     def startup_model(self, momentum=None):
         """(A_s, d) of the start-up model z' = A_s z + d (+ F(z) with measured momentum).
@@ -278,8 +275,11 @@ class LebedevObserver:
         if not self.measured_momentum or momentum is None:
             return self.A, np.zeros(3)
         h = np.asarray(momentum, float)
-        drift = self.spin_rate * np.array([h[1], -h[0], 0.0]) / self.inertia
-        return gyrostat_error_matrix(self.inertia, self.spin_rate, h), drift
+        key = tuple(h.tolist())
+        if self._startup_cache[0] != key:  # built once, not at every evaluation of the derivative
+            drift = self.spin_rate * np.array([h[1], -h[0], 0.0]) / self.inertia
+            self._startup_cache = (key, (gyrostat_error_matrix(self.inertia, self.spin_rate, h), drift))
+        return self._startup_cache[1]
 
     def start(self, momentum=None):
         """The observer's state at the start of the start-up phase: z = 0 (eq. 3.1) or, with

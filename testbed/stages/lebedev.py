@@ -30,13 +30,8 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.observers.lebedev_momentum import check_momentum_observable, idle_polar_range
-from testbed.observers.lebedev_observer import (
-    LebedevObserver,
-    check_gains,
-    check_observer_poles,
-    cross3,
-    lebedev_torque,
-)
+from testbed.math.cross import cross3
+from testbed.observers.lebedev_observer import LebedevObserver, check_gains, check_observer_poles, lebedev_torque
 from testbed.pipeline import require_free_body, stage
 from testbed.schema import join, param
 
