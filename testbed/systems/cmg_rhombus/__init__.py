@@ -6,6 +6,7 @@
 - gimbal_servo.py     the gimbal-rate servos (intvelocity, feedforward) and where the momentum drift comes from
 - reduced_model.py    the reduced (gyrostat) model, reference `reduced_cmg`
 - momentum_envelope.py, envelope_command.py   the envelope and singular surfaces, `testbed envelope`
+- momentum_gauge.py   what momentum the cluster can hold and what torque it can give (its convex hull)
 - stages.py           the open-loop allocator `gimbal_rate_profile`
 - metrics.py          servo tracking of the held gimbal-rate command
 """

@@ -12,6 +12,7 @@ import numpy as np
 
 from testbed.free_bus import BUS_BODY
 from testbed.math.quaternion import quat_to_matrix
+from testbed.systems.cmg_rhombus.momentum_gauge import envelope_gauge
 
 N_CMG = 4
 GIMBALS = tuple(f"gimbal{i}" for i in range(1, N_CMG + 1))  # body and joint names
@@ -110,3 +111,13 @@ class ClusterGeometry:
         j = self.unit_jacobian(beta)
         measure = np.sqrt(np.maximum(np.linalg.det(j @ np.swapaxes(j, -1, -2)), 0.0))
         return float(measure) if measure.ndim == 0 else measure
+
+    def momentum_gauge(self, momenta):
+        """(gauge, u) of momenta P (m, 3) [N m s], body axes: max_u u·P / S(u) with S(u) the most
+        momentum the cluster holds along u (gauge <= 1: P can be held; for this layout exactly,
+        momentum_gauge.py), and the direction u of the maximum (m, 3). The torques the cluster
+        gives at gimbal rates up to beta'max are beta'max times the same set, so the gauge of a
+        torque T is |T|'s share of what the cluster can turn at that rate limit. The neutral
+        interface through which a stage asks what the actuators can hold (README "Non-zero total
+        momentum")."""
+        return envelope_gauge(momenta, self.gimbal_axes, self.rotor_momentum)

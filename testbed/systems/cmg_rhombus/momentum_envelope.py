@@ -19,6 +19,8 @@ of a gimbal axis are dropped: there the projection vanishes and h_i is undetermi
 
 Only the gimbal axes enter the construction, so any cluster can be passed as a (4, 3)
 array (e.g. read from the MuJoCo model); by default they come from α.
+
+What the cluster can hold at all: momentum_gauge.py.
 """
 
 from __future__ import annotations
@@ -29,8 +31,9 @@ from pathlib import Path
 import numpy as np
 
 from testbed.systems.cmg_rhombus.cluster import rhombus_axes
+from testbed.systems.cmg_rhombus.momentum_gauge import fibonacci_sphere, unit_axes
 from testbed.errors import InputError
-from testbed.math.validation import finite_number, positive_count, positive_number
+from testbed.math.validation import finite_number, positive_number
 from testbed.trace import recording_to
 
 # Directions u closer than this (|g_i × u|) to a gimbal axis are skipped (see module doc).
@@ -51,23 +54,13 @@ def rhombus_gimbal_axes(alpha) -> np.ndarray:
     return rhombus_geometry(alpha)[2]
 
 
-def fibonacci_sphere(n) -> np.ndarray:
-    """n nearly uniform unit vectors (n, 3) on the sphere (golden-angle spiral)."""
-    n = positive_count("envelope.n_points", n)
-    k = np.arange(n) + 0.5
-    z = 1.0 - 2.0 * k / n
-    r = np.sqrt(1.0 - z * z)
-    phi = np.pi * (3.0 - np.sqrt(5.0)) * k
-    return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
-
-
 def singular_momenta(u, signs, axes, h=1.0) -> np.ndarray:
     """Per-CMG momenta h_i = ε_i h (g_i × u) × g_i / |g_i × u| for directions u (m, 3): (m, 4, 3).
 
     Every such state is singular, with u normal to all torque axes g_i × h_i.
     Raises InputError if some u lies along a gimbal axis (h_i undetermined there).
     """
-    g = _axes(axes)
+    g = unit_axes(axes)
     u = np.atleast_2d(np.asarray(u, dtype=float))
     eps = np.asarray(signs, dtype=float).reshape(1, -1, 1)
     if eps.shape[1] != g.shape[0] or not np.all(np.abs(eps) == 1):
@@ -90,13 +83,13 @@ def _directions(axes, n):
 
 def envelope_points(alpha, n, h=1.0, axes=None) -> np.ndarray:
     """Points (m, 3) [N m s] of the external momentum envelope (ε = +1) over n directions u."""
-    g = rhombus_gimbal_axes(alpha) if axes is None else _axes(axes)
+    g = rhombus_gimbal_axes(alpha) if axes is None else unit_axes(axes)
     return singular_momenta(_directions(g, n), EXTERNAL, g, h).sum(axis=1)
 
 
 def singular_surface_points(alpha, n, h=1.0, axes=None) -> dict[tuple[int, ...], np.ndarray]:
     """{sign pattern ε (ε1 = +1): points (m, 3)} for the envelope (1,1,1,1) and the 7 internal surfaces."""
-    g = rhombus_gimbal_axes(alpha) if axes is None else _axes(axes)
+    g = rhombus_gimbal_axes(alpha) if axes is None else unit_axes(axes)
     # the per-CMG momenta of a pattern are those of the envelope times its signs ε_i (exact)
     external = singular_momenta(_directions(g, n), EXTERNAL, g, h)
     surfaces = {}
@@ -127,7 +120,7 @@ def write_envelope_rrd(path, alpha, h, n, axes=None) -> Path:
     """
     import rerun as rr  # deferred: the geometry above does not need the viewer SDK
 
-    g = rhombus_gimbal_axes(alpha) if axes is None else _axes(axes)
+    g = rhombus_gimbal_axes(alpha) if axes is None else unit_axes(axes)
     h = positive_number("cmg.h_Nms", h)
     surfaces = singular_surface_points(alpha, n, h, g)
     with recording_to(path, "testbed-envelope") as rec:
@@ -141,13 +134,3 @@ def write_envelope_rrd(path, alpha, h, n, axes=None) -> Path:
             static=True,
         )
     return Path(path)
-
-
-def _axes(axes) -> np.ndarray:
-    g = np.asarray(axes, dtype=float)
-    if g.ndim != 2 or g.shape[1] != 3 or g.shape[0] < 1 or not np.all(np.isfinite(g)):
-        raise InputError("cmg.gimbal_axes", f"must be an (n, 3) array of finite numbers, got shape {g.shape}")
-    norms = np.linalg.norm(g, axis=1)
-    if np.any(np.abs(norms - 1.0) > 1e-6):
-        raise InputError("cmg.gimbal_axes", f"must be unit vectors, norms {np.round(norms, 9).tolist()}")
-    return g / norms[:, None]
