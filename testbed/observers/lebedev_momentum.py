@@ -144,10 +144,11 @@ def end_state_information(inertia, spin_rate, sensor_axis, total_momentum, decay
     return float(least / rigid)
 
 
-def idle_polar_range(inertia, momentum, omega0, duration: float) -> tuple[float, float]:
-    """(least, largest) angle [deg] between the total momentum L = I w + H and body z while the body
-    idles for `duration` [s] from w(0) = `omega0` with the actuators holding H: the free gyrostat,
-    I w' = -w x (I w + H), solved with DOP853 (L keeps its length and turns in the body)."""
+def idle_polar_angles(inertia, momentum, omega0, duration: float) -> np.ndarray:
+    """Angle [deg] between the total momentum L = I w + H and body z every second while the body
+    idles for `duration` [s] (the last sample at `duration`) from w(0) = `omega0` with the
+    actuators holding H: the free gyrostat, I w' = -w x (I w + H), solved with DOP853 (L keeps its
+    length and turns in the body)."""
     inertia = np.asarray(inertia, float)
     held = np.asarray(momentum, float)
     times = np.linspace(0.0, duration, max(2, int(duration) + 1))
@@ -155,7 +156,12 @@ def idle_polar_range(inertia, momentum, omega0, duration: float) -> tuple[float,
         sol = solve_ivp(lambda t, w: -np.cross(w, inertia * w + held) / inertia, (0.0, max(duration, 1e-9)),
                         np.asarray(omega0, float), method="DOP853", rtol=1e-9, atol=1e-15, t_eval=times)
     L = inertia[:, None] * sol.y + held[:, None]
-    polar = np.degrees(np.arccos(np.clip(L[2] / np.linalg.norm(L, axis=0), -1.0, 1.0)))
+    return np.degrees(np.arccos(np.clip(L[2] / np.linalg.norm(L, axis=0), -1.0, 1.0)))
+
+
+def idle_polar_range(inertia, momentum, omega0, duration: float) -> tuple[float, float]:
+    """(least, largest) of `idle_polar_angles`: where the idle start-up takes L's angle to body z [deg]."""
+    polar = idle_polar_angles(inertia, momentum, omega0, duration)
     return float(polar.min()), float(polar.max())
 
 

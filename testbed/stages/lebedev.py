@@ -29,7 +29,8 @@ from typing import Literal
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.observers.lebedev_momentum import check_momentum_observable, idle_polar_range
+from testbed.observers.lebedev_end_momentum import check_end_momentum_held
+from testbed.observers.lebedev_momentum import check_momentum_observable, idle_polar_angles
 from testbed.math.cross import cross3
 from testbed.observers.lebedev_observer import LebedevObserver, check_gains, check_observer_poles, lebedev_torque
 from testbed.pipeline import require_free_body, stage
@@ -184,9 +185,11 @@ class LebedevEstimator:
 
     def _check_momentum(self, ctx, startup: float) -> None:
         """Refuse, before the run, momentum one gyro cannot work with: an idle cluster whose H(0)
-        leaves the body at rest unobservable (the filter's start information singular), and a
+        leaves the body at rest unobservable (the filter's start information singular), a
         total momentum L whose end states the filter would hold too little information about
-        (testbed.observers.lebedev_momentum)."""
+        (testbed.observers.lebedev_momentum), and, when the plant's description offers
+        `momentum_gauge`, an L whose end spin the actuators cannot hold or, at the allocator's
+        published gimbal-rate limit, turn (testbed.observers.lebedev_end_momentum)."""
         held = np.asarray(ctx.internal_momentum, float)
         obs = self.observer
         obs.start(held)
@@ -197,8 +200,13 @@ class LebedevEstimator:
                                       f"body at rest (I^-1 [H x], C unobservable: information {least:.3g} of "
                                       f"{largest:.3g})")
         total = np.asarray(ctx.inertia, float) @ np.asarray(ctx.initial.omega, float) + held
-        idle = idle_polar_range(obs.inertia, held, ctx.initial.omega, startup)
-        check_momentum_observable(obs.inertia, obs.spin_rate, obs.C, total, obs.decay, "initial", idle)
+        polar = idle_polar_angles(obs.inertia, held, ctx.initial.omega, startup)
+        check_momentum_observable(obs.inertia, obs.spin_rate, obs.C, total, obs.decay, "initial",
+                                  (float(polar.min()), float(polar.max())))
+        if hasattr(ctx.description, "momentum_gauge"):
+            rate_limit = ctx.stages["allocator"].design.get("gimbal_rate_limit")
+            check_end_momentum_held(ctx.description.momentum_gauge, obs.inertia, obs.spin_rate, total,
+                                    float(polar[-1]), "initial", rate_limit)
 
     @staticmethod
     def build_observer(params: LebedevObserverParams, inertia, spin_rate: float, sensing_axis) -> LebedevObserver:

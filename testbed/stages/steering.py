@@ -97,8 +97,10 @@ class SteeringAllocator:
 
     @classmethod
     def design(cls, params) -> dict:
-        # the command keys of the torque produced and of the momentum H the cluster holds
-        return {"delivered_torque": "torque_delivered", "internal_momentum": "momentum"}
+        # the command keys of the torque produced and of the momentum H the cluster holds, and the
+        # gimbal-rate limit [rad/s] the law keeps (what torque the cluster can give: momentum_gauge)
+        return {"delivered_torque": "torque_delivered", "internal_momentum": "momentum",
+                "gimbal_rate_limit": float(np.radians(params.beta_rate_max_deg_s))}
 
     def __init__(self, params: SteeringParams, ctx):
         if not hasattr(ctx.description, "unit_jacobian"):
