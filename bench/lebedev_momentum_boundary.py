@@ -19,7 +19,10 @@ With --cases N: runs `lebedev_spinup_cmg_momentum` N times from random gimbal an
 overrides (another bus inertia, gyro axis), and prints one row per case (refused at load,
 pass, or FAIL with the check that failed) and the counts. Alongside: the total momentum L,
 the largest cluster momentum the final spin needs |H_end| = |L - I Omega e_z| (the cluster
-holds at most 4 h = 300 N m s), and the steering's least singularity measure in the run.
+holds at most 4 h = 300 N m s), `hold`: the largest share of what the cluster can hold that the
+end circle asks for with L where the idle start-up leaves it (testbed.observers.lebedev_end_momentum;
+the load-time check refuses above 1 at every angle within CLOSED_LOOP_TILT_DEG of it), and the
+steering's least singularity measure in the run.
 
 With --startup: the start-up observer's error decay on the idle body (`startup_decay`).
 """
@@ -32,10 +35,12 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from testbed.errors import InputError
+from testbed.observers.lebedev_end_momentum import end_momentum_demand
 from testbed.observers.lebedev_momentum import (
     MIN_INFORMATION,
     axial_unobservable_momenta,
     end_state_information,
+    idle_polar_angles,
     observable_momentum_radius,
 )
 
@@ -118,6 +123,12 @@ def run_case(job):
     figures = {"|L|": float(np.linalg.norm(L)),
                "theta_deg": float(np.degrees(np.arccos(L[2] / np.linalg.norm(L)))),
                "|H_end|": float(np.hypot(np.hypot(L[0], L[1]), L[2] - inertia[2, 2] * spin))}
+    held = plant.internal_momentum_body()
+    polar = idle_polar_angles(np.diag(inertia), held, np.radians(scenario.initial.omega_deg_s),
+                              scenario.stages["estimator"][1].startup_s)[-1]
+    (share, _, _, _), = end_momentum_demand(plant.description().momentum_gauge, np.diag(inertia), spin,
+                                            float(np.linalg.norm(L)), [polar])
+    figures["hold"] = share
     run = run_scenario(scenario, None)
     m = run.metrics
     figures |= {"closing": m["estimation_error_at_closing_deg_s"], "est_final": m["estimation_error_final_deg_s"],
@@ -133,12 +144,12 @@ def cases(args) -> None:
     jobs = [(i, rng.uniform(-180.0, 180.0, 4), args.set) for i in range(args.cases)]
     counts = {"pass": 0, "refused": 0, "FAIL": 0}
     print(f"{SCENARIO} from {args.cases} random gimbal angles (seed {args.seed}), overrides {args.set}")
-    print("case verdict   |L|  theta  |H_end| closing_err est_final spin_final min_sing  detail")
+    print("case verdict   |L|  theta  |H_end|  hold closing_err est_final spin_final min_sing  detail")
     with ProcessPoolExecutor(args.workers) as pool:
         for index, verdict, detail, f in pool.map(run_case, jobs):
             counts[verdict] += 1
-            row = (f"{f['|L|']:5.0f} {f['theta_deg']:6.1f} {f['|H_end|']:6.0f}   {f['closing']:9.2g} {f['est_final']:9.2g}"
-                   f" {f['spin_final']:9.2g} {f['min_sing']:8.2g}" if "closing" in f else " " * 64)
+            row = (f"{f['|L|']:5.0f} {f['theta_deg']:6.1f} {f['|H_end|']:6.0f} {f['hold']:5.3f}   {f['closing']:9.2g}"
+                   f" {f['est_final']:9.2g} {f['spin_final']:9.2g} {f['min_sing']:8.2g}" if "closing" in f else " " * 70)
             print(f"{index:4d} {verdict:8s}{row}  {detail}", flush=True)
     print(f"pass {counts['pass']}, refused {counts['refused']}, accepted and failing {counts['FAIL']} "
           f"(of {args.cases})")
