@@ -1,7 +1,7 @@
 """Whether the actuators can hold and turn the momentum a Lebedev spin-up ends with.
 
 Our extension of Lebedev (1976) to a body whose actuators hold momentum H (README "Non-zero
-total momentum", "What the cluster can hold"). The total momentum L = I w + H is fixed in
+total momentum", "What the cluster cannot hold at the end spin"). The total momentum L = I w + H is fixed in
 inertial space and keeps its length. At the wanted spin w = Omega e_z it makes an angle theta with
 body z and turns in the body at -Omega about z, so the actuators must hold, for every phase phi,
 
@@ -11,9 +11,9 @@ body z and turns in the body at -Omega about z, so the actuators must hold, for 
 (w' = 0, no external torque) leaves the actuators H' = -w x H = -Omega e_z x H, a torque of size
 Omega |L| sin theta along the circle. Both are asked of the plant's description through
 `momentum_gauge(vectors) -> (gauge, u)` (gauge <= 1: the momentum can be held; the torques at
-gimbal rates up to beta'max are beta'max times the same set, so a torque T can be given iff its
-gauge <= beta'max). A point of the circle with gauge > 1 is a momentum no actuator state holds: the
-spin-up cannot end there. `check_end_momentum_held` refuses an L for which that is so at every
+gimbal rates up to beta'max are beta'max times the same set, so no gimbal state gives a torque
+whose gauge exceeds beta'max). A point of the circle with gauge > 1 is a momentum no actuator
+state holds, a torque with gauge > beta'max one none gives: the spin-up cannot end there. `check_end_momentum_held` refuses an L for which that is so at every
 angle theta the spin can end at: where the idle start-up leaves L (`idle_polar_angles` at the
 start-up's end) give or take CLOSED_LOOP_TILT_DEG, the closed loop's tilt (README); the most
 favourable angle decides, so a refusal does not depend on where in that band the spin ends.

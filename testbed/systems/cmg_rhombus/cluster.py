@@ -117,7 +117,7 @@ class ClusterGeometry:
         momentum the cluster holds along u (gauge <= 1: P can be held; for this layout exactly,
         momentum_gauge.py), and the direction u of the maximum (m, 3). The torques the cluster
         gives at gimbal rates up to beta'max are beta'max times the same set, so the gauge of a
-        torque T is |T|'s share of what the cluster can turn at that rate limit. The neutral
+        torque T [N m] is the least rate limit [rad/s] at which some gimbal state gives it. The neutral
         interface through which a stage asks what the actuators can hold (README "Non-zero total
         momentum")."""
         return envelope_gauge(momenta, self.gimbal_axes, self.rotor_momentum)

@@ -53,8 +53,9 @@ def envelope_gauge(momenta, axes, rotor_momenta, n=GAUGE_DIRECTIONS) -> tuple[np
     Sampled over n Fibonacci directions and over ±g_i (where S has its kinks and the envelope its
     flat faces), each point's best direction of each set refined by a compass search on the sphere
     whose step halves from the sampling's spacing to 1e-7 rad (the gauge's error then ~1e-9 where
-    the maximum is smooth; up to ~1e-5 where it lies in a narrow wedge next to a kink ±g_i). Every u gives a lower bound, so a
-    gauge above 1 is certain: P lies beyond the plane u·H = S(u), which no gimbal state crosses."""
+    the maximum is smooth; up to ~1e-5 where it lies in a narrow wedge next to a kink ±g_i).
+    Every u gives a lower bound, so a gauge above 1 is certain: P lies beyond the plane
+    u·H = S(u), which no gimbal state crosses."""
     g = unit_axes(axes)
     P = np.atleast_2d(np.asarray(momenta, dtype=float))
 
