@@ -81,3 +81,25 @@ def test_a_stored_momentum_near_the_envelope_is_accepted():
     (share, _, _, _), = end_momentum_demand(plant.description().momentum_gauge, moments, DEG,
                                             np.linalg.norm(L), [polar])
     assert 0.95 < share < 1.0
+
+
+def test_a_gimbal_rate_limit_too_slow_to_turn_the_end_circle_is_refused(capsys):
+    """The shipped stored momentum (L = (20, -15, -60) N m s) with the steering held to 0.1 deg/s:
+    the end circle needs the torque Omega |L| sin(theta) ~ 0.7 N m along it, and what the cluster
+    gives at 0.1 deg/s reaches only beta'max 2h sin 2a = 0.25 N m across its height-0 section."""
+    code = main(["run", "lebedev_spinup_cmg_momentum", "--set", "pipeline.allocator.beta_rate_max_deg_s=0.1"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1
+    assert err.startswith("error: initial: total angular momentum L = (20.00, -15.00, -60.00) N m s: the actuators "
+                          "cannot keep the spin it ends in") and "at the gimbal-rate limit)" in err
+
+
+def test_a_system_without_momentum_gauge_is_not_checked(monkeypatch):
+    """The stage asks the plant's description; without `momentum_gauge` the stored momentum that
+    test_a_stored_momentum_beyond_the_envelope_is_refused_at_load refuses is accepted."""
+    from testbed.runner import prepare
+    from testbed.scenario import load_scenario
+    from testbed.systems.cmg_rhombus.cluster import ClusterGeometry
+
+    monkeypatch.delattr(ClusterGeometry, "momentum_gauge")
+    prepare(load_scenario("lebedev_spinup_cmg_momentum", ["model.gimbal_angles_deg=[0, 180, 180, 0]"]))
