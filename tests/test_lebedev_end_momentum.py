@@ -103,3 +103,18 @@ def test_a_system_without_momentum_gauge_is_not_checked(monkeypatch):
 
     monkeypatch.delattr(ClusterGeometry, "momentum_gauge")
     prepare(load_scenario("lebedev_spinup_cmg_momentum", ["model.gimbal_angles_deg=[0, 180, 180, 0]"]))
+
+
+@pytest.mark.slow
+def test_the_refused_stored_momentum_run_anyway_saturates_the_cluster(monkeypatch):
+    """What the refusal spares: gimbals (0, 180, 180, 0) flown with the check bypassed end with the
+    cluster exactly singular (measured sqrt(det J J^T) 2e-32) and the spin 0.46 deg/s off."""
+    import testbed.stages.lebedev as lebedev_stage
+    from testbed.runner import run_scenario
+    from testbed.scenario import load_scenario
+
+    monkeypatch.setattr(lebedev_stage, "check_end_momentum_held", lambda *args, **kwargs: None)
+    run = run_scenario(load_scenario("lebedev_spinup_cmg_momentum", ["model.gimbal_angles_deg=[0, 180, 180, 0]"]),
+                       None)
+    assert run.metrics["min_singularity_measure"] < 1e-3
+    assert run.metrics["spin_error_final_deg_s"] > 0.1
