@@ -134,6 +134,12 @@ class CmgPlant(Plant):
         limits, cancel_initial_momentum); `control_period` [s]: how long each command is held."""
         super().__init__(CmgRhombus(model))
         self.geometry = self.bus.geometry
+        # what the encoders and tachometers read, as views of MuJoCo's arrays (which never move):
+        # a copy of a view costs a quarter of slicing data's array anew, at every trace sample and
+        # every control tick of a steering allocator
+        self._gimbal_angle = self.data.qpos[self.bus.gimbal_qpos]
+        self._gimbal_rate = self.data.qvel[self.bus.gimbal_qvel]
+        self._rotor_rate = self.data.qvel[self.bus.rotor_qvel]
         self.cancel_initial_momentum = params.cancel_initial_momentum
         rate_limit = None if params.gimbal_rate_limit_deg_s is None else np.radians(params.gimbal_rate_limit_deg_s)
         if params.servo_model == "feedforward":
@@ -175,10 +181,8 @@ class CmgPlant(Plant):
 
     def truth(self) -> dict[str, np.ndarray]:
         signals = super().truth()
-        signals.update(gimbal_angle=self.bus.gimbal_angles(self.data),
-                       gimbal_rate=self.bus.gimbal_rates(self.data),
-                       gimbal_rate_command=self.servo.held_command(self.data),
-                       rotor_rate=self.bus.rotor_rates(self.data))
+        signals.update(gimbal_angle=self._gimbal_angle.copy(), gimbal_rate=self._gimbal_rate.copy(),
+                       gimbal_rate_command=self.servo.held_command(self.data), rotor_rate=self._rotor_rate.copy())
         return signals
 
     def derived_signals(self, recorder) -> dict[str, np.ndarray]:
@@ -191,8 +195,7 @@ class CmgPlant(Plant):
 
     def actuator_state(self) -> dict[str, np.ndarray]:
         """What the gimbal encoders and rotor tachometers report."""
-        return {"gimbal_angle": self.bus.gimbal_angles(self.data),
-                "rotor_rate": self.bus.rotor_rates(self.data)}
+        return {"gimbal_angle": self._gimbal_angle.copy(), "rotor_rate": self._rotor_rate.copy()}
 
     def apply(self, command: dict[str, np.ndarray]) -> None:
         if "body_torque" in command:  # the base class's one actuator, asked for only when commanded
