@@ -352,11 +352,15 @@ class LebedevObserver:
         self.z = np.zeros(3) if z0 is None else np.asarray(z0, dtype=float).copy()
         self.info = None
 
+    def substeps(self, dt: float) -> int:
+        """How many equal RK4 substeps integrate an interval of dt [s]: the fewest no longer than max_substep."""
+        return max(1, int(np.ceil(dt / self.max_substep - 1e-9)))
+
     def _advance(self, rhs_of_y, state, y, dt, y_end=None):
         if not dt > 0:
             raise InputError("control.period", f"must be > 0, got {dt}")
         y_dev = float(y) - self.C[2] * self.spin_rate
-        n = max(1, int(np.ceil(dt / self.max_substep - 1e-9)))
+        n = self.substeps(dt)
         if y_end is None:  # zero-order hold: y over the interval is the sample at its start
             rhs = lambda s, z: rhs_of_y(z, y_dev, s)  # noqa: E731
         else:              # first-order hold: y moves linearly to the sample at its end

@@ -31,6 +31,7 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.observers.lebedev_momentum import check_momentum_observable, idle_polar_range
 from testbed.math.cross import cross3
+from testbed.math.rk4 import check_rk4_stable
 from testbed.observers.lebedev_observer import LebedevObserver, check_gains, check_observer_poles, lebedev_torque
 from testbed.pipeline import require_free_body, stage
 from testbed.schema import join, param
@@ -173,6 +174,8 @@ class LebedevEstimator:
         with scenario_fields(names):
             self.observer = self.build_observer(params, ctx.inertia, law.design["spin_rate"],
                                                 sensor.design["sensing_axis"])
+        period = ctx.sample_period or ctx.control_period   # the interval each estimate integrates
+        check_rk4_stable(params.poles, period / self.observer.substeps(period), "pipeline.estimator.poles_per_s")
         if self.momentum_key is not None:
             self._check_momentum(ctx, params.startup_s)   # and starts the observer with the H held
         self.startup = params.startup_s
