@@ -237,7 +237,7 @@ class LebedevEstimator:
         a vertex switch, the gimbals' own momentum) enters w_hat algebraically, as the truth's
         w = I^-1 (L_b - H), instead of integrating as a torque error. Causal: the H used was
         measured at the previous sample (the allocator's output of the last tick)."""
-        held = np.asarray(command.get(self.held_key), float)
+        held = np.asarray(command.get(self.held_key, command[self.momentum_key]), float)
         if self._t_prev < self.startup:
             start, rate = held, np.zeros(3)
         else:
