@@ -16,6 +16,7 @@ from testbed.scene import moving_parts
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTORS, ClusterGeometry
 from testbed.systems.cmg_rhombus.gimbal_servo import FeedForwardServo, IntVelocityServo
 from testbed.systems.cmg_rhombus.model import GIMBAL_MOTORS, GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS
+from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel
 from testbed.systems.cmg_rhombus.momentum_envelope import singular_surface_points, surface_color, surface_name
 
 ENVELOPE_DIRECTIONS = 1500  # directions per surface in the trace's momentum view (testbed envelope: 4000)
@@ -39,7 +40,9 @@ class CmgRhombus(FreeBus):
 
     def __init__(self, model):
         super().__init__(model)
-        self.geometry = ClusterGeometry.from_model(model)
+        # the gimbal inertias too, so the allocator can report the cluster's momentum in full
+        self.geometry = ClusterGeometry.from_model(model).with_gimbal_inertia(
+            CmgMassModel.from_model(model).cmg_inertia)
         gimbal_joints = [model.joint(n) for n in GIMBALS]
         rotor_joints = [model.joint(n) for n in ROTORS]
         self.gimbal_qpos_adr = np.array([j.qposadr[0] for j in gimbal_joints])
@@ -194,8 +197,9 @@ class CmgPlant(Plant):
                 "truth/singularity_measure": self.geometry.singularity_measure(beta)[:, None]}
 
     def actuator_state(self) -> dict[str, np.ndarray]:
-        """What the gimbal encoders and rotor tachometers report."""
-        return {"gimbal_angle": self._gimbal_angle.copy(), "rotor_rate": self._rotor_rate.copy()}
+        """What the gimbal encoders and the gimbal and rotor tachometers report."""
+        return {"gimbal_angle": self._gimbal_angle.copy(), "gimbal_rate": self._gimbal_rate.copy(),
+                "rotor_rate": self._rotor_rate.copy()}
 
     def apply(self, command: dict[str, np.ndarray]) -> None:
         if "body_torque" in command:  # the base class's one actuator, asked for only when commanded
