@@ -16,6 +16,7 @@ from pathlib import Path
 
 import mujoco
 
+from testbed.blas_threads import one_blas_thread
 from testbed.runner import prepare, run_scenario
 from testbed.scenario import load_scenario
 
@@ -41,7 +42,8 @@ def main() -> None:
             t0, c0 = time.perf_counter(), time.process_time()
             result = run_scenario(scenario, Path(tmp) / "bench.rrd")
             pipeline_s, pipeline_cpu = min(pipeline_s, time.perf_counter() - t0), min(pipeline_cpu, time.process_time() - c0)
-        plant, _, _ = prepare(scenario)
+        with one_blas_thread():  # as in run_scenario: no BLAS threads spinning into the bare run's CPU time
+            plant, _, _ = prepare(scenario)
         t0, c0 = time.perf_counter(), time.process_time()
         mujoco.mj_step(plant.model, plant.data, nstep=steps)
         bare_s, bare_cpu = min(bare_s, time.perf_counter() - t0), min(bare_cpu, time.process_time() - c0)

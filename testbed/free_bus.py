@@ -33,6 +33,9 @@ class FreeBus:
         self.bus_body_id = model.body(BUS_BODY).id
         self.qpos_adr = int(joint.qposadr[0])
         self.qvel_adr = int(joint.dofadr[0])
+        # the body rate and attitude within qvel and qpos, as slices: read every trace sample
+        self.omega_dofs = slice(self.qvel_adr + 3, self.qvel_adr + 6)
+        self.quat_coords = slice(self.qpos_adr + 3, self.qpos_adr + 7)
         self.torque_actuator_ids = np.array([model.actuator(n).id for n in TORQUE_ACTUATORS])
 
     def applied(self) -> dict:
@@ -42,11 +45,11 @@ class FreeBus:
 
     def body_omega(self, data):
         """Body-frame angular velocity [rad/s]: a free joint's rotational qvel is body-frame."""
-        return data.qvel[self.qvel_adr + 3:self.qvel_adr + 6].copy()
+        return data.qvel[self.omega_dofs].copy()
 
     def body_quat(self, data):
         """Attitude quaternion (w, x, y, z), body -> world."""
-        return data.qpos[self.qpos_adr + 3:self.qpos_adr + 7].copy()
+        return data.qpos[self.quat_coords].copy()
 
     def set_body_torque(self, data, torque_body):
         """Command the ideal torque [N m] about the bus axes (body frame)."""
@@ -66,14 +69,16 @@ class FreeBus:
         data.qvel[self.qvel_adr:self.qvel_adr + 3] = 0.0
         data.qvel[self.qvel_adr + 3:self.qvel_adr + 6] = omega
 
-    def refresh(self, data):
-        """Recompute kinematics, CoMs, mass matrix and body velocities from the current
-        qpos, qvel. After mj_step, data holds these for the start of the step while qpos and
-        qvel are already the new state; the read-outs below call this so they describe the
-        current state. Touches nothing mj_step reads, so trajectories are unchanged."""
+    def refresh(self, data, mass_matrix: bool = True):
+        """Recompute kinematics, CoMs, mass matrix (unless `mass_matrix` is False: a read-out
+        of velocities alone needs none) and body velocities from the current qpos, qvel. After
+        mj_step, data holds these for the start of the step while qpos and qvel are already the
+        new state; the read-outs below call this so they describe the current state. Touches
+        nothing mj_step reads, so trajectories are unchanged."""
         mujoco.mj_kinematics(self.model, data)
         mujoco.mj_comPos(self.model, data)
-        mujoco.mj_makeM(self.model, data)
+        if mass_matrix:
+            mujoco.mj_makeM(self.model, data)
         mujoco.mj_comVel(self.model, data)
 
     def system_inertia(self, data):
@@ -102,7 +107,8 @@ class FreeBus:
 
     def total_angular_momentum_world(self, data):
         """Angular momentum of the whole spacecraft about its CoM, world frame [N m s]
-        (mj_subtreeVel fills subtree_angmom from the refreshed kinematics and velocities)."""
-        self.refresh(data)
+        (mj_subtreeVel fills subtree_angmom from the refreshed kinematics and velocities; it
+        reads no mass matrix, and this runs at every trace sample)."""
+        self.refresh(data, mass_matrix=False)
         mujoco.mj_subtreeVel(self.model, data)
         return data.subtree_angmom[self.bus_body_id].copy()

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from testbed import metrics, references_registry, systems_registry, trace
+from testbed.blas_threads import one_blas_thread
 from testbed.errors import InputError, refused_as
 from testbed.pipeline import Pipeline, StageContext, StageFailed, params_dict, stage_infos
 from testbed.plant import SimulationDiverged
@@ -125,6 +126,12 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     goes; the file and the sinks get a chunk at least every FLUSH_AFTER_S of wall time;
     `progress(fraction)` is called about 200 times; `on_prepared(plant, pipeline)` sees the
     built plant and stages before the first step (a campaign reads back what the case runs with)."""
+    with one_blas_thread():
+        return _run(scenario, out, progress, keep_data, live, on_prepared)
+
+
+def _run(scenario, out, progress, keep_data, live, on_prepared) -> RunResult:
+    """`run_scenario`'s body, with one BLAS thread (testbed.blas_threads)."""
     wall0 = time.perf_counter()
     out = trace.output_path(out) if out is not None else None  # refused before the run, not after
     plant, pipeline, reference = prepare(scenario)

@@ -538,6 +538,31 @@ def test_observer_substep_so_small_the_run_never_ends(cli, substep):
     assert result.seconds < 5.0
 
 
+@pytest.mark.parametrize("poles, pole", [("[-1e300, -1, -1]", "-1e+300"), ("[-0.1, -45, -0.1]", "-45")])
+def test_observer_poles_the_rk4_substeps_cannot_integrate(cli, poles, pole):
+    """The paper example integrates its observer in RK4 substeps of h = 0.0625 s; a mode at p is
+    damped only while |R(p h)| < 1 (R = 1 + z + z^2/2 + z^3/6 + z^4/24: |p| h < 2.785 on the real
+    axis, so -44 1/s is and -45 1/s is not). Refused before the run, not an overflow at t = 0.0625 s."""
+    line = assert_refused(cli("run", "lebedev_spinup_ideal", "--out", "x.rrd", "--set", f"pipeline.estimator.poles_per_s={poles}"),
+                          "pipeline.estimator.poles_per_s", f"pole {pole} 1/s", "0.0625 s")
+    assert "Traceback" not in line
+
+
+def test_observer_pole_inside_the_rk4_region_runs(cli):
+    """-44 1/s at h = 0.0625 s (z = -2.75, |R| = 0.95): accepted and run."""
+    out = Path.cwd() / "x.rrd"
+    assert_ran(cli("run", "lebedev_spinup_ideal", "--out", out, "--set", "pipeline.estimator.poles_per_s=[-0.1, -44, -0.1]",
+                   "--set", NO_CHECKS, "--set", "sim.duration_s=1"), out)
+
+
+@pytest.mark.parametrize("angle", ["1e308", "-361", "1e6"])
+def test_gimbal_angle_beyond_a_turn(cli, angle):
+    """A gimbal angle of 1e308 deg ran until MuJoCo called the first step diverged (exit 1, a
+    trace); any angle beyond a turn is refused naming the gimbal, before the run."""
+    assert_refused(cli("run", "cmg_open_loop", "--out", "x.rrd", "--set", f"model.gimbal_angles_deg=[30, {angle}, -20, 70]"),
+                   "model.gimbal_angles_deg[1]", "more than a turn")
+
+
 # --- 7. output paths, sweep folders, envelope size, inspect on things that are not runs ---------
 
 def test_out_is_a_directory(cli):

@@ -7,6 +7,8 @@ from typing import Callable
 
 import numpy as np
 
+from testbed.errors import InputError
+
 
 def rk4_steps(f: Callable[[float, np.ndarray], np.ndarray], y: np.ndarray, duration: float,
               n: int) -> np.ndarray:
@@ -27,3 +29,27 @@ def rk4_steps(f: Callable[[float, np.ndarray], np.ndarray], y: np.ndarray, durat
         k4 = f(s1, y + h * k3)
         y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
     return y
+
+
+def rk4_amplification(z):
+    """R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24: one RK4 step of length h multiplies a mode
+    y' = lambda y by R(lambda h) (the method's stability function; |R| < 1 is its stability
+    region, which meets the negative real axis at z = -2.785)."""
+    z = np.asarray(z, complex)
+    return 1 + z * (1 + z / 2 * (1 + z / 3 * (1 + z / 4)))
+
+
+def check_rk4_stable(eigenvalues, step: float, field: str) -> None:
+    """Refuse linear modes y' = lambda y that RK4 steps of `step` [s] would not damp
+    (|R(lambda h)| >= 1, `rk4_amplification`): the integrated error would grow where the
+    design says it decays, and overflow within a few steps."""
+    with np.errstate(over="ignore", invalid="ignore"):   # a pole of 1e300 1/s: R overflows, refused below
+        growth = np.abs(rk4_amplification(np.asarray(eigenvalues, complex) * float(step)))
+    growth = np.where(np.isnan(growth), np.inf, growth)
+    worst = int(np.argmax(growth))
+    if not growth[worst] < 1.0:
+        pole = complex(np.asarray(eigenvalues, complex)[worst])
+        shown = f"{pole.real:.4g}" if pole.imag == 0 else f"{pole.real:.4g}{pole.imag:+.4g}i"
+        raise InputError(field, f"pole {shown} 1/s is outside the stability region of the RK4 substeps "
+                                f"of {step:.4g} s that integrate it (|R(p h)| = {growth[worst]:.3g} >= 1; a real "
+                                f"pole needs |p| h < 2.785): take slower poles or a shorter max_substep_s")

@@ -337,6 +337,24 @@ class LebedevObserver:
             model = model + (compensated - cross3(z + [0.0, 0.0, self.spin_rate], momentum)) / self.inertia
         return self._filtered(state, model, y_dev, momentum)
 
+    def hold_total_momentum(self, modelled, measured) -> None:
+        """Re-anchor the estimate on a measured internal momentum: keep the total momentum in
+        body axes the estimate stands for, L_b = I w_hat + H, while H moves from the value the
+        model reached (`modelled`) to the one measured (`measured`) [N m s]: w_hat -= I^-1 dH.
+
+        Why it is right: the body's L_b' = L_b x w holds exactly whatever the actuators exchange
+        with it (no H' in it), and w = I^-1 (L_b - H), so H enters w algebraically. The observer's
+        model is that motion written in w, I w' = -w x (I w + H) - H' with H' the held command's;
+        a momentum the command does not contain, dH, would otherwise stay in w_hat as an
+        integrated torque error. Writing the error as eps = I^-1 (L_b_hat - L_b) =
+        e + I^-1 (H_model - H), it obeys the filter's error equation eps' = (J - l C) eps + f with
+        a forcing f = -(J - l C) I^-1 d - I^-1 (w x d) proportional to d = H_model - H, the
+        momentum the model has missed since the last sample (reset to the measurement error by
+        this call), not to d'. So the decay bound V = eps' Pi eps, V' <= -2 a V
+        (testbed.math.information_filter) holds for eps with the gain and Pi unchanged, forced by
+        a d that no longer accumulates (README "Non-zero total momentum")."""
+        self.z = self.z - (np.asarray(measured, float) - np.asarray(modelled, float)) / self.inertia
+
     def state(self, momentum=None) -> np.ndarray:
         """The observer's state: z, with measured momentum followed by Pi (row-major; `start`
         with the first momentum given when it was not started with one)."""
@@ -352,11 +370,15 @@ class LebedevObserver:
         self.z = np.zeros(3) if z0 is None else np.asarray(z0, dtype=float).copy()
         self.info = None
 
+    def substeps(self, dt: float) -> int:
+        """How many equal RK4 substeps integrate an interval of dt [s]: the fewest no longer than max_substep."""
+        return max(1, int(np.ceil(dt / self.max_substep - 1e-9)))
+
     def _advance(self, rhs_of_y, state, y, dt, y_end=None):
         if not dt > 0:
             raise InputError("control.period", f"must be > 0, got {dt}")
         y_dev = float(y) - self.C[2] * self.spin_rate
-        n = max(1, int(np.ceil(dt / self.max_substep - 1e-9)))
+        n = self.substeps(dt)
         if y_end is None:  # zero-order hold: y over the interval is the sample at its start
             rhs = lambda s, z: rhs_of_y(z, y_dev, s)  # noqa: E731
         else:              # first-order hold: y moves linearly to the sample at its end

@@ -32,6 +32,7 @@ from testbed.errors import InputError
 from testbed.observers.lebedev_end_momentum import check_end_momentum_held
 from testbed.observers.lebedev_momentum import check_momentum_observable, idle_polar_angles
 from testbed.math.cross import cross3
+from testbed.math.rk4 import check_rk4_stable
 from testbed.observers.lebedev_observer import LebedevObserver, check_gains, check_observer_poles, lebedev_torque
 from testbed.pipeline import require_free_body, stage
 from testbed.schema import join, param
@@ -166,6 +167,9 @@ class LebedevEstimator:
                              f"or a steering law that reports torque_delivered, got {allocator.type!r}")
         self.torque_key = allocator.design["delivered_torque"]
         self.momentum_key = allocator.design.get("internal_momentum") if params.momentum_gain == "measured" else None
+        # the momentum the cluster holds in full (gimbal-rate terms included) when the allocator
+        # reports it: the level of H in the model; `momentum_key`'s H is what the command used
+        self.held_key = allocator.design.get("held_momentum", self.momentum_key) if self.momentum_key else None
         self.inertia = principal_axes_moments(ctx.inertia)
         names = {"sensor.axis": "pipeline.sensor.axis", "body.inertia": "model.inertia_kg_m2",
                  "control.spin_rate": law.design["spin_rate_field"],
@@ -174,6 +178,8 @@ class LebedevEstimator:
         with scenario_fields(names):
             self.observer = self.build_observer(params, ctx.inertia, law.design["spin_rate"],
                                                 sensor.design["sensing_axis"])
+        period = ctx.sample_period or ctx.control_period   # the interval each estimate integrates
+        check_rk4_stable(params.poles, period / self.observer.substeps(period), "pipeline.estimator.poles_per_s")
         if self.momentum_key is not None:
             self._check_momentum(ctx, params.startup_s)   # and starts the observer with the H held
         self.startup = params.startup_s
@@ -182,6 +188,7 @@ class LebedevEstimator:
         self._t_prev: float | None = None
         self._y_prev = 0.0
         self._command: tuple | None = None   # the cluster's held command (measured momentum)
+        self._modelled: np.ndarray | None = None  # the H the model reached at the last sample
 
     def _check_momentum(self, ctx, startup: float) -> None:
         """Refuse, before the run, momentum one gyro cannot work with: an idle cluster whose H(0)
@@ -216,35 +223,58 @@ class LebedevEstimator:
                                params.max_substep_s, params.design_momentum_nms,
                                measured_momentum=params.momentum_gain == "measured")
 
-    def _held_command(self, momentum, torque):
+    def _held_command(self, momentum, held, torque):
         """(H at the interval's start, H', w_k x H_k) of the command the cluster holds (measured
-        momentum): issued at the last control instant t_k from the momentum H_k it reports and the
-        estimate w_k this stage gave then, it keeps H' = -(M + w_k x H_k) until the next one
-        (testbed.stages.steering), so H(t) = H_k + (t - t_k) H'. A command is new when its H_k or
-        M differs from the one held (at the sensor's faster rate the same command comes again)."""
-        held = self._command
-        if held is None or not (np.array_equal(momentum, held[0]) and np.array_equal(torque, held[1])):
+        momentum): issued at the last control instant t_k from the momentum H_k it reports
+        (`momentum`, what the steering compensated) and the estimate w_k this stage gave then, it
+        keeps H' = -(M + w_k x H_k) until the next one (testbed.stages.steering), so the cluster
+        holds H(t) = H_held,k + (t - t_k) H', H_held,k the full momentum measured at t_k (`held`).
+        A command is new when its H_k or M differs from the one held (at the sensor's faster
+        rate the same command comes again)."""
+        last = self._command
+        if last is None or not (np.array_equal(momentum, last[0]) and np.array_equal(torque, last[1])):
             compensated = cross3(self.observer.omega_estimate(), momentum)   # w_k: this stage's output at t_k
-            held = self._command = (momentum, torque, -(torque + compensated), compensated, self._t_prev)
-        momentum, _, rate, compensated, issued = held
-        return momentum + (self._t_prev - issued) * rate, rate, compensated
+            last = self._command = (momentum, torque, held, -(torque + compensated), compensated, self._t_prev)
+        _, _, held, rate, compensated, issued = last
+        return held + (self._t_prev - issued) * rate, rate, compensated
+
+    def _step_measured(self, y_end, h, command) -> None:
+        """One interval of the measured-momentum observer (README "Non-zero total momentum"). The
+        model runs in w, but it stands for the total momentum in body axes L_b = I w_hat + H,
+        whose motion L_b' = L_b x w holds whatever the cluster does: when the interval starts
+        from a measured H that differs from the H the model reached, the estimate keeps L_b and
+        moves w_hat by -I^-1 dH (LebedevObserver.hold_total_momentum), so a momentum exchange
+        the held command does not contain (servo lag, the curvature of H(beta) over the period,
+        a vertex switch, the gimbals' own momentum) enters w_hat algebraically, as the truth's
+        w = I^-1 (L_b - H), instead of integrating as a torque error. Causal: the H used was
+        measured at the previous sample (the allocator's output of the last tick)."""
+        held = np.asarray(command.get(self.held_key, command[self.momentum_key]), float)
+        if self._t_prev < self.startup:
+            start, rate = held, np.zeros(3)
+        else:
+            momentum = np.asarray(command.get(self.momentum_key), float)
+            torque = np.asarray(command.get(self.torque_key, np.zeros(3)), float)
+            start, rate, compensated = self._held_command(momentum, held, torque)
+        if self._modelled is not None:
+            self.observer.hold_total_momentum(self._modelled, start)
+        if self._t_prev < self.startup:
+            self.observer.startup_step(self._y_prev, h, y_end, start)                # the idle body
+        else:
+            self.observer.step(self._y_prev, torque / self.inertia, h, y_end, start, rate, compensated)
+        self._modelled = start + h * rate
 
     def estimate(self, t, measurement, command):
         y = float(np.asarray(measurement["y"])[0])
         if self._t_prev is not None:
             h = t - self._t_prev
             y_end = y if self.linear_hold else None
-            # the momentum the cluster held over the interval (measured_momentum only)
-            held = command.get(self.momentum_key) if self.momentum_key is not None else None
-            if self._t_prev < self.startup:
-                self.observer.startup_step(self._y_prev, h, y_end, held)      # eq. 3.1, body uncontrolled
+            if self.momentum_key is not None and self.momentum_key in command:
+                self._step_measured(y_end, h, command)
+            elif self._t_prev < self.startup:
+                self.observer.startup_step(self._y_prev, h, y_end)                # eq. 3.1, body uncontrolled
             else:
                 torque = np.asarray(command.get(self.torque_key, np.zeros(3)), float)
-                if held is None:
-                    self.observer.step(self._y_prev, torque / self.inertia, h, y_end)  # eq. 4.6, u = M / I
-                else:
-                    start, rate, compensated = self._held_command(np.asarray(held, float), torque)
-                    self.observer.step(self._y_prev, torque / self.inertia, h, y_end, start, rate, compensated)
+                self.observer.step(self._y_prev, torque / self.inertia, h, y_end)  # eq. 4.6, u = M / I
         self._t_prev, self._y_prev = t, y
         obs = self.observer
         innovation = y - obs.C[2] * obs.spin_rate - obs.C @ obs.z

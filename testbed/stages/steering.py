@@ -6,7 +6,10 @@ the measured gimbal angles and rotor speeds. Each law of testbed.steering is a s
 `pinv`, `sr`, `gsr`, `minimax_lp`, `minimax`, `minimax_avoid`. When the best achievable
 max |b'_i| exceeds b'max the demand is scaled down, keeping its direction; `scale` records the
 factor, `torque_delivered` the torque the command produces on the bus, `momentum` the H it was
-computed with (what the encoders and tachometers say the cluster holds) and `status` the law's
+computed with (the rotors' spin momentum H(beta, Omega) the encoders and rotor tachometers give),
+`held_momentum` the momentum the cluster holds in full (H plus the gimbal frames and rotors
+turning with the gimbal rates, ClusterGeometry.held_momentum: when the actuator state has the
+gimbal tachometers' `gimbal_rate` and the description the gimbal inertias) and `status` the law's
 status flags as the sum of their codes (testbed.steering.result.STATUS_CODES: 1 rate_limited,
 2 rank_deficient, 4 lp_failed, 8 avoidance_limited; 0 ok). What a law needs at each step beyond
 J, h and H' (testbed.steering.STEP_INPUTS) comes from the clock and the cluster description:
@@ -97,9 +100,11 @@ class SteeringAllocator:
 
     @classmethod
     def design(cls, params) -> dict:
-        # the command keys of the torque produced and of the momentum H the cluster holds, and the
-        # gimbal-rate limit [rad/s] the law keeps (what torque the cluster can give: momentum_gauge)
+        # the command keys of the torque produced, of the momentum H the command was computed with
+        # and of the momentum the cluster holds in full (see the module doc), and the gimbal-rate
+        # limit [rad/s] the law keeps (what torque the cluster can give: momentum_gauge)
         return {"delivered_torque": "torque_delivered", "internal_momentum": "momentum",
+                "held_momentum": "held_momentum",
                 "gimbal_rate_limit": float(np.radians(params.beta_rate_max_deg_s))}
 
     def __init__(self, params: SteeringParams, ctx):
@@ -205,12 +210,15 @@ class SteeringAllocator:
         result = self.law(self.geometry.unit_jacobian(beta), self.geometry.h, hdot, self.rate_max,
                           **self.options, **inputs)
         self._count(result, beta)
+        held = (self.geometry.held_momentum(beta, rotor, actuators["gimbal_rate"])
+                if "gimbal_rate" in actuators and hasattr(self.geometry, "held_momentum") else momentum)
         self.previous = result.beta_rate
         if self.setpoint is not None:  # the servos integrate the held command into their set-point
             self.setpoint = self.setpoint + self.period * result.beta_rate
         return {"gimbal_rates": result.beta_rate,
                 "torque_delivered": -result.hdot_delivered - gyroscopic,
                 "momentum": momentum,
+                "held_momentum": held,
                 "scale": np.array([result.scale]),
                 "singularity": np.array([result.singularity_measure]),
                 "rank": np.array([float(result.rank)]),

@@ -37,6 +37,8 @@ class ClusterGeometry:
     gimbal_axes g_i, spin_axes_zero e_i (spin at beta = 0), turn_axes = g_i x e_i (= s_i z):
     (4, 3) unit vectors. spin_inertia Js_i [kg m^2], nominal_rotor_speed Omega [rad/s],
     rotor_momentum h_i = Js_i Omega (4,), h: the common value of h_i [N m s].
+    gimbal_axis_inertia J_g,i [kg m^2] (4,): gimbal frame and rotor about the gimbal axis (0,
+    the spin momentum alone, until `with_gimbal_inertia` gives it).
     """
 
     def __init__(self, gimbal_axes, spin_axes_zero, spin_inertia, nominal_rotor_speed):
@@ -49,6 +51,20 @@ class ClusterGeometry:
         if np.ptp(self.rotor_momentum) > 1e-12 * self.rotor_momentum.max():
             raise ValueError(f"rotor momenta differ: {self.rotor_momentum}")
         self.h = float(self.rotor_momentum.mean())
+        self.gimbal_axis_inertia = np.zeros(len(self.gimbal_axes))
+
+    def with_gimbal_inertia(self, cmg_inertia) -> "ClusterGeometry":
+        """This geometry, told the inertia K_i of each gimbal frame with its rotor about their
+        CoMs at beta = 0, bus frame (4, 3, 3) (CmgMassModel.cmg_inertia, read from the compiled
+        model): keeps J_g,i = g_i' K_i g_i. The gimbal axis must be a principal axis of K_i (true
+        of the rhombus: the gimbal frame's inertia is principal about it and the rotor is
+        symmetric about its spin axis, normal to it), so K_i g_i = J_g,i g_i at every angle."""
+        turning = np.einsum("iab,ib->ia", np.asarray(cmg_inertia, float), self.gimbal_axes)
+        along = np.einsum("ia,ia->i", turning, self.gimbal_axes)
+        if np.abs(turning - along[:, None] * self.gimbal_axes).max() > 1e-9 * along.max():
+            raise ValueError("a gimbal axis is not a principal axis of its gimbal and rotor")
+        self.gimbal_axis_inertia = along
+        return self
 
     @classmethod
     def from_model(cls, model):
@@ -88,6 +104,15 @@ class ClusterGeometry:
         h = self.rotor_momentum if rotor_rates is None else (
             self.spin_inertia * np.asarray(rotor_rates, dtype=float))
         return (h[..., None, :] @ self.spin_axes(beta))[..., 0, :]
+
+    def held_momentum(self, beta, rotor_rates, gimbal_rates):
+        """The momentum the cluster holds relative to the bus in full [N m s], bus frame: the
+        rotors' spin H(beta, Omega) (`momentum`, SEEDS §004 eq. (15)) plus each gimbal frame and
+        rotor turning with its gimbal, J_g,i b'_i g_i (`with_gimbal_inertia`; the gimbal-rate
+        terms of CmgMassModel.internal_momentum). With the gimbal rates from the tachometers it
+        is the momentum MuJoCo's mass matrix gives (CmgRhombus.internal_momentum_body)."""
+        turning = (self.gimbal_axis_inertia * np.asarray(gimbal_rates, dtype=float)) @ self.gimbal_axes
+        return self.momentum(beta, rotor_rates) + turning
 
     def unit_jacobian(self, beta):
         """dH/dbeta per unit rotor momentum, (..., 3, 4): column i = -sin b_i e_i + cos b_i s_i z

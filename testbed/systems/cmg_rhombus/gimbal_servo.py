@@ -170,8 +170,11 @@ class FeedForwardServo(IntVelocityServo):
         self._kv_q = (self._kv + inertia * self.q).tolist()     # kv + J q
         self._jp = (inertia * self.p).tolist()                  # J p
         self._jq = (inertia * self.q).tolist()                  # J q
-        # the observer: delta over the last tick, and delta^ over the coming one
-        self._delta = self._predicted = (-self._bias).tolist()
+        # the observer: delta over the last tick, and delta^ over the coming one (two lists,
+        # updated in place every tick, as is the torque)
+        self._delta = (-self._bias).tolist()
+        self._predicted = list(self._delta)
+        self._torque = [0.0] * len(self._delta)
         self._gimbals = range(len(self._delta))
         self._current = self._previous = self._rate.tolist()  # no rate error before t = 0
 
@@ -185,24 +188,19 @@ class FeedForwardServo(IntVelocityServo):
         else:
             command, followed = self._clipped(self._current), self._clipped(self._previous)
         rate, angle, setpoint = self._rate.tolist(), self._angle.tolist(), self._setpoint.tolist()
-        last, predicted = self._delta, self._predicted
+        delta, coming, torque = self._delta, self._predicted, self._torque  # last tick's, overwritten here
         gain, kv_q, jp, jq = self._observer_gain, self._kv_q, self._jp, self._jq
-        delta, coming, torque = [], [], []
-        for i in self._gimbals:  # by index: cheaper than zipping eleven lists or three comprehensions
-            delta_i = predicted[i] + gain[i] * (rate[i] - followed[i])  # the disturbance the last tick met
-            coming_i = 2.0 * delta_i - last[i]  # extrapolated over this tick
-            delta.append(delta_i)
-            coming.append(coming_i)
-            torque.append(kv_q[i] * command[i] - jp[i] * (angle[i] - setpoint[i]) - jq[i] * rate[i] - coming_i)
-        if self.torque_limit is not None:
-            applied = self._limited(torque)
-            # what the motor leaves out counts as disturbance it did not compensate, so the
-            # next tick's residual is read against the torque it really gave
-            coming = [d_coming + u - a for d_coming, u, a in zip(coming, torque, applied)]
-            torque = applied
-        self._delta, self._predicted = delta, coming
-        self._write(*self._current, *torque)  # MuJoCo clips the rates to the limit (ctrlrange)
-
-    def _limited(self, torques: list) -> list:
+        for i in self._gimbals:  # by index and in place: cheaper than zips, comprehensions or new lists
+            delta_i = coming[i] + gain[i] * (rate[i] - followed[i])  # the disturbance the last tick met
+            coming[i] = 2.0 * delta_i - delta[i]  # extrapolated over this tick
+            delta[i] = delta_i
+            torque[i] = kv_q[i] * command[i] - jp[i] * (angle[i] - setpoint[i]) - jq[i] * rate[i] - coming[i]
         limit = self.torque_limit
-        return [min(max(u, -limit), limit) for u in torques]
+        if limit is not None:
+            for i in self._gimbals:
+                applied = min(max(torque[i], -limit), limit)
+                # what the motor leaves out counts as disturbance it did not compensate, so the
+                # next tick's residual is read against the torque it really gave
+                coming[i] = coming[i] + torque[i] - applied
+                torque[i] = applied
+        self._write(*self._current, *torque)  # MuJoCo clips the rates to the limit (ctrlrange)

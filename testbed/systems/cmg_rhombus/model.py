@@ -83,6 +83,12 @@ class CmgRhombusParams:
     def validate(self, path: str) -> None:
         check_principal_inertia(self.inertia_kg_m2, join(path, "inertia_kg_m2"))
         check_principal_inertia(self.gimbal_inertia_kg_m2, join(path, "gimbal_inertia_kg_m2"))
+        for i, angle in enumerate(self.gimbal_angles_deg):
+            # a gimbal angle is periodic; far beyond a turn the float keeps no fraction of a
+            # degree (at 1e308 MuJoCo stops the run at its first step as diverged)
+            if not abs(angle) <= 360.0:
+                raise InputError(join(path, f"gimbal_angles_deg[{i}]"), f"{angle:g} deg is more than a turn: give "
+                                 "the same orientation within [-360, 360] deg")
 
     @property
     def rotor_speed(self) -> float:

@@ -16,6 +16,7 @@ from testbed.scene import moving_parts
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTORS, ClusterGeometry
 from testbed.systems.cmg_rhombus.gimbal_servo import FeedForwardServo, IntVelocityServo
 from testbed.systems.cmg_rhombus.model import GIMBAL_MOTORS, GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS
+from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel
 from testbed.systems.cmg_rhombus.momentum_envelope import singular_surface_points, surface_color, surface_name
 
 ENVELOPE_DIRECTIONS = 1500  # directions per surface in the trace's momentum view (testbed envelope: 4000)
@@ -39,7 +40,9 @@ class CmgRhombus(FreeBus):
 
     def __init__(self, model):
         super().__init__(model)
-        self.geometry = ClusterGeometry.from_model(model)
+        # the gimbal inertias too, so the allocator can report the cluster's momentum in full
+        self.geometry = ClusterGeometry.from_model(model).with_gimbal_inertia(
+            CmgMassModel.from_model(model).cmg_inertia)
         gimbal_joints = [model.joint(n) for n in GIMBALS]
         rotor_joints = [model.joint(n) for n in ROTORS]
         self.gimbal_qpos_adr = np.array([j.qposadr[0] for j in gimbal_joints])
@@ -134,6 +137,12 @@ class CmgPlant(Plant):
         limits, cancel_initial_momentum); `control_period` [s]: how long each command is held."""
         super().__init__(CmgRhombus(model))
         self.geometry = self.bus.geometry
+        # what the encoders and tachometers read, as views of MuJoCo's arrays (which never move):
+        # a copy of a view costs a quarter of slicing data's array anew, at every trace sample and
+        # every control tick of a steering allocator
+        self._gimbal_angle = self.data.qpos[self.bus.gimbal_qpos]
+        self._gimbal_rate = self.data.qvel[self.bus.gimbal_qvel]
+        self._rotor_rate = self.data.qvel[self.bus.rotor_qvel]
         self.cancel_initial_momentum = params.cancel_initial_momentum
         rate_limit = None if params.gimbal_rate_limit_deg_s is None else np.radians(params.gimbal_rate_limit_deg_s)
         if params.servo_model == "feedforward":
@@ -175,10 +184,8 @@ class CmgPlant(Plant):
 
     def truth(self) -> dict[str, np.ndarray]:
         signals = super().truth()
-        signals.update(gimbal_angle=self.bus.gimbal_angles(self.data),
-                       gimbal_rate=self.bus.gimbal_rates(self.data),
-                       gimbal_rate_command=self.servo.held_command(self.data),
-                       rotor_rate=self.bus.rotor_rates(self.data))
+        signals.update(gimbal_angle=self._gimbal_angle.copy(), gimbal_rate=self._gimbal_rate.copy(),
+                       gimbal_rate_command=self.servo.held_command(self.data), rotor_rate=self._rotor_rate.copy())
         return signals
 
     def derived_signals(self, recorder) -> dict[str, np.ndarray]:
@@ -190,9 +197,9 @@ class CmgPlant(Plant):
                 "truth/singularity_measure": self.geometry.singularity_measure(beta)[:, None]}
 
     def actuator_state(self) -> dict[str, np.ndarray]:
-        """What the gimbal encoders and rotor tachometers report."""
-        return {"gimbal_angle": self.bus.gimbal_angles(self.data),
-                "rotor_rate": self.bus.rotor_rates(self.data)}
+        """What the gimbal encoders and the gimbal and rotor tachometers report."""
+        return {"gimbal_angle": self._gimbal_angle.copy(), "gimbal_rate": self._gimbal_rate.copy(),
+                "rotor_rate": self._rotor_rate.copy()}
 
     def apply(self, command: dict[str, np.ndarray]) -> None:
         if "body_torque" in command:  # the base class's one actuator, asked for only when commanded
