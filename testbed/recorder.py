@@ -86,8 +86,11 @@ class Recorder:
     def sample(self, t: float, groups: dict[str, dict[str, np.ndarray]]) -> None:
         i = self.count - self._first
         self._time[i] = t
+        by_group = self._by_group
         for group, signals in groups.items():
-            buffers = self._by_group.setdefault(group, {})
+            buffers = by_group.get(group)
+            if buffers is None:  # (not setdefault: that builds a new dict at every sample)
+                buffers = by_group[group] = {}
             for name, value in signals.items():
                 buf = buffers.get(name)
                 if buf is None:
