@@ -555,6 +555,14 @@ def test_observer_pole_inside_the_rk4_region_runs(cli):
                    "--set", NO_CHECKS, "--set", "sim.duration_s=1"), out)
 
 
+def test_stored_momentum_spin_up_without_start_up_phase(cli):
+    """startup_s 0 with measured momentum: the load-time checks take L where it starts (the idle
+    start-up that turns it lasts no time; solve_ivp was handed an empty span and raised)."""
+    out = Path.cwd() / "x.rrd"
+    assert_ran(cli("run", "lebedev_spinup_cmg_momentum", "--out", out, "--set", "pipeline.estimator.startup_s=0",
+                   "--set", NO_CHECKS, "--set", "sim.duration_s=2"), out)
+
+
 @pytest.mark.parametrize("angle", ["1e308", "-361", "1e6"])
 def test_gimbal_angle_beyond_a_turn(cli, angle):
     """A gimbal angle of 1e308 deg ran until MuJoCo called the first step diverged (exit 1, a

@@ -295,3 +295,13 @@ def test_momentum_exchange_the_command_does_not_contain_stays_algebraic():
     assert after[k_step + 2:].max() < 0.1 * step               # then a tenth of it, decaying
     assert before[k_step + 2:k_step + 1200].max() > 3 * step   # the excursion: several steps
     assert before[k_steady:].min() > 100 * after[k_steady:].max()   # and a steady exchange stays
+
+
+def test_idle_polar_angles_of_no_start_up_is_where_L_starts():
+    """With no idle start-up (duration 0) the only angle is that of L(0) = I w(0) + H to body z."""
+    from testbed.observers.lebedev_momentum import idle_polar_angles
+
+    inertia, held, omega0 = np.array([1250.0, 6900.0, 7100.0]), np.array([20.0, -35.0, 40.0]), np.array([0.01, -0.02, 0.005])
+    L = inertia * omega0 + held
+    np.testing.assert_allclose(idle_polar_angles(inertia, held, omega0, 0.0),
+                               [np.degrees(np.arccos(L[2] / np.linalg.norm(L)))], rtol=1e-14)

@@ -151,11 +151,13 @@ def idle_polar_angles(inertia, momentum, omega0, duration: float) -> np.ndarray:
     length and turns in the body)."""
     inertia = np.asarray(inertia, float)
     held = np.asarray(momentum, float)
-    times = np.linspace(0.0, duration, max(2, int(duration) + 1))
-    with np.errstate(under="ignore"):
-        sol = solve_ivp(lambda t, w: -np.cross(w, inertia * w + held) / inertia, (0.0, max(duration, 1e-9)),
-                        np.asarray(omega0, float), method="DOP853", rtol=1e-9, atol=1e-15, t_eval=times)
-    L = inertia[:, None] * sol.y + held[:, None]
+    rates = np.asarray(omega0, float)[:, None]
+    if duration > 0.0:  # (no start-up: L where it starts)
+        times = np.linspace(0.0, duration, max(2, int(duration) + 1))
+        with np.errstate(under="ignore"):
+            rates = solve_ivp(lambda t, w: -np.cross(w, inertia * w + held) / inertia, (0.0, duration),
+                              rates[:, 0], method="DOP853", rtol=1e-9, atol=1e-15, t_eval=times).y
+    L = inertia[:, None] * rates + held[:, None]
     return np.degrees(np.arccos(np.clip(L[2] / np.linalg.norm(L, axis=0), -1.0, 1.0)))
 
 
