@@ -47,6 +47,10 @@ class FreeBus:
         """Body-frame angular velocity [rad/s]: a free joint's rotational qvel is body-frame."""
         return data.qvel[self.omega_dofs].copy()
 
+    def state_views(self, data):
+        """(body rate, attitude): views of `data`'s qvel and qpos that `body_omega` and `body_quat` copy."""
+        return data.qvel[self.omega_dofs], data.qpos[self.quat_coords]
+
     def body_quat(self, data):
         """Attitude quaternion (w, x, y, z), body -> world."""
         return data.qpos[self.quat_coords].copy()

@@ -56,6 +56,10 @@ class Plant:
         self.bus = bus  # addresses of the free bus (FreeBus) or the system's own equivalent
         self.model = bus.model
         self.data = mujoco.MjData(self.model)
+        # the bus's rate and attitude as views of MuJoCo's arrays, which never move (a FreeBus):
+        # each read-out copies a view, a quarter of the cost of slicing data's array anew
+        views = getattr(bus, "state_views", None)
+        self._omega_now, self._quat_now = views(self.data) if views is not None else (None, None)
         # MuJoCo resets the state (or zeroes the control) on these and carries on: we stop.
         self._bad = [(w, self.data.warning[w]) for w in (
             mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
@@ -75,11 +79,11 @@ class Plant:
 
     def omega(self) -> np.ndarray:
         """Body-frame angular velocity of the bus."""
-        return self.bus.body_omega(self.data)
+        return self._omega_now.copy() if self._omega_now is not None else self.bus.body_omega(self.data)
 
     def quat(self) -> np.ndarray:
         """Bus attitude (w, x, y, z), body to world."""
-        return self.bus.body_quat(self.data)
+        return self._quat_now.copy() if self._quat_now is not None else self.bus.body_quat(self.data)
 
     def angular_momentum_world(self) -> np.ndarray:
         """Total angular momentum of the whole spacecraft about its CoM, world frame."""
