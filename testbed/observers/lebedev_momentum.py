@@ -22,7 +22,7 @@ misses the surface, r* = `observable_momentum_radius` (the nearest zero of the c
 ray from L = 0, which is observable whenever the rigid body is); r* is small (15.4 N m s for the
 flagship's spacecraft, below Ix Omega = 21.8) because the surface bends towards L = 0 off the
 z axis. The spin-up does not end in any attitude, though: L keeps its length, its angle to body
-z is where the idle start-up left it (the free gyrostat turns L in the body: `idle_polar_range`)
+z is where the idle start-up left it (the free gyrostat turns L in the body: `idle_polar_angles`)
 give or take the closed loop's few degrees, and at the end its transverse part turns with the
 body, sweeping a circle. `check_momentum_observable` asks for the observer's information on
 those circles (`end_state_information`); the measured tilts are in the README.
@@ -161,18 +161,12 @@ def idle_polar_angles(inertia, momentum, omega0, duration: float) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(L[2] / np.linalg.norm(L, axis=0), -1.0, 1.0)))
 
 
-def idle_polar_range(inertia, momentum, omega0, duration: float) -> tuple[float, float]:
-    """(least, largest) of `idle_polar_angles`: where the idle start-up takes L's angle to body z [deg]."""
-    polar = idle_polar_angles(inertia, momentum, omega0, duration)
-    return float(polar.min()), float(polar.max())
-
-
 def check_momentum_observable(inertia, spin_rate, sensor_axis, total_momentum, decay: float, field: str,
                               polar_range_deg: tuple[float, float] | None = None) -> None:
     """Refuse a total momentum L at whose end states the observer would hold less than
     MIN_INFORMATION of the rigid body's information (`end_state_information`), on the circles at
-    the polar angles the spin can end at: `polar_range_deg` (where the idle start-up takes L,
-    `idle_polar_range`) widened by CLOSED_LOOP_TILT_DEG, or L's own angle +- that."""
+    the polar angles the spin can end at: `polar_range_deg` (the least and largest angle the idle
+    start-up takes L to, `idle_polar_angles`) widened by CLOSED_LOOP_TILT_DEG, or L's own angle +- that."""
     L = np.asarray(total_momentum, float)
     size = float(np.linalg.norm(L))
     if size == 0.0:
