@@ -563,6 +563,19 @@ def test_stored_momentum_spin_up_without_start_up_phase(cli):
                    "--set", NO_CHECKS, "--set", "sim.duration_s=2"), out)
 
 
+@pytest.mark.parametrize("assignment", ["pipeline.estimator.startup_s=1e308", "pipeline.estimator.startup_s=1e7",
+                                        "pipeline.allocator.beta_rate_max_deg_s=1e308"])
+def test_stored_momentum_checks_at_the_ends_of_the_float_range(cli, assignment):
+    """The stored-momentum load checks: a start-up longer than the run has no end spin to check
+    (1e308 s asked numpy for an array of 1e308 samples, a traceback; 1e7 s solved the idle motion
+    for minutes), and a gimbal-rate limit of 1e308 deg/s makes the torque shares 0 (an underflow
+    was refused as 'cannot be built'). Both run."""
+    out = Path.cwd() / "x.rrd"
+    with _watchdog(60.0):
+        assert_ran(cli("run", "lebedev_spinup_cmg_momentum", "--out", out, "--set", assignment,
+                       "--set", NO_CHECKS, "--set", "sim.duration_s=1"), out)
+
+
 @pytest.mark.parametrize("angle", ["1e308", "-361", "1e6"])
 def test_gimbal_angle_beyond_a_turn(cli, angle):
     """A gimbal angle of 1e308 deg ran until MuJoCo called the first step diverged (exit 1, a

@@ -55,7 +55,8 @@ def end_momentum_demand(gauge, moments, spin_rate, size: float, polars_deg, rate
     worst = [None] * len(circles)
     for kind, vectors, limit in demands:   # (polars, phases, 3): one gauge call for all
         values, directions = gauge(vectors.reshape(-1, 3))
-        values = values.reshape(vectors.shape[:2]) / limit
+        with np.errstate(under="ignore"):   # a rate limit of 1e308 rad/s: the shares are 0, not an error
+            values = values.reshape(vectors.shape[:2]) / limit
         directions = directions.reshape(vectors.shape)
         for i, k in enumerate(np.argmax(values, axis=1)):
             if worst[i] is None or values[i, k] > worst[i][0]:
