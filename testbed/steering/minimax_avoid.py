@@ -95,6 +95,7 @@ a singular set on random slews, and what the preference costs in peak rate.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -192,10 +193,20 @@ def checked_preference(gimbal_angle, preferred_gimbal_angles, preferred_jacobian
             np.all(np.isfinite(beta)) and np.all(np.isfinite(start)) and np.all(np.isfinite(jacobian))):
         raise InputError("steering.preferred_gimbal_angles", "gimbal_angle and preferred_gimbal_angles must be "
                          "4 finite angles and preferred_jacobian a finite 3x4 matrix")
-    svd = jacobian_svd(jacobian, rcond)
-    if svd.rank < 3 or svd.measure <= floor:
+    rank, measure, null_vector = _start_null_vector(jacobian.tobytes(), rcond)
+    if rank < 3 or measure <= floor:
         return None
-    return beta, start, svd.null_space[0]
+    return beta, start, null_vector
+
+
+@functools.lru_cache(maxsize=16)
+def _start_null_vector(jacobian: bytes, rcond: float) -> tuple[int, float, np.ndarray]:
+    """(rank, measure, v0) of the start's J (3x4, as bytes): the same J comes at every step of a
+    run, so its SVD is taken once (it was a fifth of a step's cost). v0 is read-only."""
+    svd = jacobian_svd(np.frombuffer(jacobian).reshape(3, 4), rcond)
+    null_vector = svd.null_space[0].copy()
+    null_vector.flags.writeable = False
+    return svd.rank, svd.measure, null_vector
 
 
 def minimax_avoid_steering(J, h, Hdot, beta_rate_max, *, column_derivative=None, measure_floor: float = 0.3,
