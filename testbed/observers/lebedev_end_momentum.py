@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.observers.lebedev_momentum import BAND_STEP_DEG, CLOSED_LOOP_TILT_DEG
+from testbed.observers.lebedev_momentum import end_held_momentum, end_polar_band
 
 # phases phi of the end circle, 2 deg apart: its largest demand is sampled to within
 # 1 - cos(1 deg) = 1.5e-4, from below (a refusal stays certain)
@@ -36,9 +36,7 @@ def end_momentum_circle(moments, spin_rate, size: float, polar_deg: float, point
     `polar_deg` to body z (module doc): the momentum the actuators hold [N m s] and the torque
     H' = -Omega e_z x H they give [N m], body axes, each (points, 3)."""
     phase = np.linspace(0.0, 2.0 * np.pi, points, endpoint=False)
-    polar = np.radians(polar_deg)
-    held = np.stack([size * np.sin(polar) * np.cos(phase), size * np.sin(polar) * np.sin(phase),
-                     np.full_like(phase, size * np.cos(polar) - moments[2] * spin_rate)], -1)
+    held = end_held_momentum(moments, spin_rate, size, np.radians(polar_deg), phase)
     turned = -spin_rate * np.stack([-held[:, 1], held[:, 0], np.zeros_like(phase)], -1)
     return held, turned
 
@@ -74,9 +72,7 @@ def check_end_momentum_held(gauge, moments, spin_rate, total_momentum, idle_end_
     size = float(np.linalg.norm(L))
     if size == 0.0:
         return
-    low = max(0.0, idle_end_polar_deg - CLOSED_LOOP_TILT_DEG)
-    high = min(180.0, idle_end_polar_deg + CLOSED_LOOP_TILT_DEG)
-    polars = np.linspace(low, high, max(3, int(np.ceil((high - low) / BAND_STEP_DEG)) + 1))
+    polars = end_polar_band(idle_end_polar_deg, idle_end_polar_deg)
     demands = end_momentum_demand(gauge, moments, spin_rate, size, polars, rate_limit)
     best = min(range(len(polars)), key=lambda i: demands[i][0])   # the most favourable end angle
     (share, vector, u, kind), polar = demands[best], polars[best]

@@ -102,6 +102,23 @@ def observable_momentum_radius(inertia, spin_rate, sensor_axis, n: int = DIRECTI
     return float(first[i]) * scale, float(first[i]) * scale * u[proper][i]
 
 
+def end_held_momentum(moments, spin_rate, size: float, polar: float, phase) -> np.ndarray:
+    """What the actuators hold at the end spin w = Omega e_z, H = L - I Omega e_z [N m s], body
+    axes (..., 3), with L (|L| = `size`) at `polar` [rad] to body z and at azimuth `phase` [rad]
+    (..., it turns in the body at -Omega: module doc)."""
+    phase = np.asarray(phase, float)
+    return np.stack([size * np.sin(polar) * np.cos(phase), size * np.sin(polar) * np.sin(phase),
+                     np.full_like(phase, size * np.cos(polar) - moments[2] * spin_rate)], -1)
+
+
+def end_polar_band(least_deg: float, largest_deg: float) -> np.ndarray:
+    """The polar angles [deg] of L an end spin is searched at: [least, largest] widened by
+    CLOSED_LOOP_TILT_DEG on each side within [0, 180], at most BAND_STEP_DEG apart, at least three."""
+    low = max(0.0, least_deg - CLOSED_LOOP_TILT_DEG)
+    high = min(180.0, largest_deg + CLOSED_LOOP_TILT_DEG)
+    return np.linspace(low, high, max(3, int(np.ceil((high - low) / BAND_STEP_DEG)) + 1))
+
+
 def end_state_information(inertia, spin_rate, sensor_axis, total_momentum, decay: float, polar_deg=None,
                           samples: int = 720) -> float:
     """The least information the measured-momentum observer holds at the end of a spin with total
@@ -122,12 +139,10 @@ def end_state_information(inertia, spin_rate, sensor_axis, total_momentum, decay
     polar = np.arccos(np.clip(L[2] / size, -1, 1)) if polar_deg is None else np.radians(polar_deg)
     azimuth0 = np.arctan2(L[1], L[0])
     spin = np.array([0.0, 0.0, spin_rate])
-    axial = inertia[2] * spin_rate
 
     def jacobian(t):
-        phase = azimuth0 - spin_rate * t
-        held = size * np.array([np.sin(polar) * np.cos(phase), np.sin(polar) * np.sin(phase), np.cos(polar)])
-        return gyrostat_jacobian(inertia, spin, held - [0.0, 0.0, axial])
+        return gyrostat_jacobian(inertia, spin, end_held_momentum(inertia, spin_rate, size, polar,
+                                                                  azimuth0 - spin_rate * t))
 
     def steady(matrix):
         shifted = matrix + decay * np.eye(3)
@@ -174,9 +189,7 @@ def check_momentum_observable(inertia, spin_rate, sensor_axis, total_momentum, d
     if polar_range_deg is None:
         own = np.degrees(np.arccos(np.clip(L[2] / size, -1.0, 1.0)))
         polar_range_deg = (own, own)
-    low = max(0.0, polar_range_deg[0] - CLOSED_LOOP_TILT_DEG)
-    high = min(180.0, polar_range_deg[1] + CLOSED_LOOP_TILT_DEG)
-    polars = np.linspace(low, high, max(3, int(np.ceil((high - low) / BAND_STEP_DEG)) + 1))
+    polars = end_polar_band(*polar_range_deg)
     least, polar = min((end_state_information(inertia, spin_rate, sensor_axis, L, decay, p), p) for p in polars)
     if least < MIN_INFORMATION:
         raise InputError(field, f"total angular momentum L = {np.array2string(L, precision=4)} N m s: one gyro cannot "
