@@ -210,8 +210,9 @@ class SteeringAllocator:
         result = self.law(self.geometry.unit_jacobian(beta), self.geometry.h, hdot, self.rate_max,
                           **self.options, **inputs)
         self._count(result, beta)
-        held = (self.geometry.held_momentum(beta, rotor, actuators["gimbal_rate"])
-                if "gimbal_rate" in actuators and hasattr(self.geometry, "held_momentum") else momentum)
+        # the full momentum (ClusterGeometry.held_momentum): the spin momentum above plus the turning gimbals'
+        held = (momentum + self.geometry.turning_momentum(actuators["gimbal_rate"])
+                if "gimbal_rate" in actuators and hasattr(self.geometry, "turning_momentum") else momentum)
         self.previous = result.beta_rate
         if self.setpoint is not None:  # the servos integrate the held command into their set-point
             self.setpoint = self.setpoint + self.period * result.beta_rate

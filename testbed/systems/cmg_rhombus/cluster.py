@@ -111,8 +111,12 @@ class ClusterGeometry:
         rotor turning with its gimbal, J_g,i b'_i g_i (`with_gimbal_inertia`; the gimbal-rate
         terms of CmgMassModel.internal_momentum). With the gimbal rates from the tachometers it
         is the momentum MuJoCo's mass matrix gives (CmgRhombus.internal_momentum_body)."""
-        turning = (self.gimbal_axis_inertia * np.asarray(gimbal_rates, dtype=float)) @ self.gimbal_axes
-        return self.momentum(beta, rotor_rates) + turning
+        return self.momentum(beta, rotor_rates) + self.turning_momentum(gimbal_rates)
+
+    def turning_momentum(self, gimbal_rates):
+        """sum_i J_g,i b'_i g_i [N m s], bus frame: what the gimbal frames and rotors turning with
+        their gimbals add to the spin momentum (`held_momentum`)."""
+        return (self.gimbal_axis_inertia * np.asarray(gimbal_rates, dtype=float)) @ self.gimbal_axes
 
     def unit_jacobian(self, beta):
         """dH/dbeta per unit rotor momentum, (..., 3, 4): column i = -sin b_i e_i + cos b_i s_i z
