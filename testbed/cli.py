@@ -10,9 +10,7 @@ import argparse
 import json
 import os
 import re
-import signal
 import sys
-import threading
 import warnings
 from pathlib import Path
 
@@ -20,6 +18,7 @@ from testbed import api, sweep_cli, trace  # sweep_cli registers the `sweep` sub
 from testbed import init_command  # noqa: F401  (registers the `init` subcommand)
 from testbed.commands import COMMANDS
 from testbed.errors import InputError
+from testbed.interrupts import Terminated, signals_as_exceptions
 from testbed.plugins import discover
 from testbed.progress import advance_to, progress_bar
 from testbed.runner import run_scenario
@@ -187,22 +186,11 @@ def _cmd_inspect(args) -> int:
     return EXIT_OK
 
 
-class _Terminated(BaseException):
-    """SIGTERM, turned into an exception (like KeyboardInterrupt, not an Exception that a stage's
-    error handling would catch) so that a trace being written is removed on the way out."""
-
-
-def _terminate(signum, frame):
-    raise _Terminated()
-
-
 def main(argv: list[str] | None = None) -> int:
     """The command line; exit status 0 every check passed, 1 a check failed or the run diverged
     or a stage failed, 2 bad input (one line on stderr, no file written), 130 Ctrl-C, 143 SIGTERM."""
-    in_main_thread = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGTERM, _terminate) if in_main_thread else None
     try:
-        with warnings.catch_warnings():
+        with signals_as_exceptions(), warnings.catch_warnings():
             warnings.simplefilter("ignore")  # numerical warnings never reach the terminal raw
             args = _parser().parse_args(argv)
             builtin = {"run": _cmd_run, "check": _cmd_check, "list": _cmd_list, "inspect": _cmd_inspect}
@@ -213,15 +201,12 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
-    except _Terminated:
+    except Terminated:
         print("terminated", file=sys.stderr)
         return 143
     except BrokenPipeError:  # the reader of stdout went away (`testbed list | head -1`)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
         return EXIT_OK
-    finally:
-        if in_main_thread:
-            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -1188,9 +1188,9 @@ def test_interrupt_at_each_step_of_the_trace_write(cli, monkeypatch, where, inte
     interrupted once, a second call of it (the clean-up's) works."""
     import rerun as rr
 
-    import testbed.cli
+    import testbed.interrupts
 
-    exc = KeyboardInterrupt if interrupt == "KeyboardInterrupt" else testbed.cli._Terminated
+    exc = KeyboardInterrupt if interrupt == "KeyboardInterrupt" else testbed.interrupts.Terminated
     owner = rr if where == "RecordingStream" else rr.RecordingStream
     original, calls = getattr(owner, where), []
 
@@ -1224,6 +1224,19 @@ def signalling_plugin(tmp_path_factory) -> Path:
         class Params:
             signal_number: int = testbed.param(15)
             at_s: float = testbed.param(0.5, ge=0)
+            in_finalizer: bool = testbed.param(False)
+
+
+        class SignalsWhenCollected:
+            """Sends the signal from its finalizer, so the handler runs inside a __del__ (as it
+            does when it lands in the one Rerun runs inside every log call)."""
+
+            def __init__(self, signum):
+                self.signum = signum
+
+            def __del__(self):
+                os.kill(os.getpid(), self.signum)
+                sum(range(10000))  # bytecodes: the handler runs here, inside the finalizer
 
 
         @testbed.stage("law", "hostile.signal_self", Params)
@@ -1236,7 +1249,10 @@ def signalling_plugin(tmp_path_factory) -> Path:
             def torque(self, t, estimate):
                 if t >= self.params.at_s and not self.sent:
                     self.sent = True
-                    os.kill(os.getpid(), self.params.signal_number)
+                    if self.params.in_finalizer:
+                        SignalsWhenCollected(self.params.signal_number)  # collected at once
+                    else:
+                        os.kill(os.getpid(), self.params.signal_number)
                 return {"torque": np.zeros(3)}
         '''))
     scenario = shipped("torque_free_skylab") | {
@@ -1256,6 +1272,34 @@ def test_signal_that_arrives_inside_a_stage(cli, signalling_plugin, sig, expecte
     assert "Traceback" not in result.err, result.err
     assert result.code == expected, (result.code, result.out[-1000:], result.err)
     assert everything_in(result.cwd) == []
+
+
+@pytest.mark.parametrize("sig, expected", SIGNALS, ids=["SIGINT", "SIGTERM"])
+def test_signal_that_arrives_inside_a_finalizer(cli, signalling_plugin, sig, expected):
+    """The handler runs inside a __del__, where Python prints the exception it raises as
+    "Exception ignored" and drops it: the signal must still stop the run with 130/143."""
+    out = Path.cwd() / "X.rrd"
+    result = cli("run", signalling_plugin, "--out", out, "--set", f"pipeline.law.signal_number={int(sig)}",
+                 "--set", "pipeline.law.in_finalizer=true")
+    assert "Traceback" not in result.err and "ignored" not in result.err, result.err
+    assert result.code == expected, (result.code, result.out[-1000:], result.err)
+    assert everything_in(result.cwd) == []
+
+
+def test_a_signal_ignored_at_start_stays_ignored():
+    """`nohup testbed run ...` or a background job of a non-interactive shell starts with SIGINT
+    ignored: the command line's handlers must not make such a run stoppable by it."""
+    from testbed.interrupts import signals_as_exceptions
+
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        with signals_as_exceptions():
+            signal.raise_signal(signal.SIGINT)  # would raise KeyboardInterrupt if handled
+            assert signal.getsignal(signal.SIGINT) == signal.SIG_IGN
+            assert signal.getsignal(signal.SIGTERM) not in (signal.SIG_DFL, signal.SIG_IGN)
+        assert signal.getsignal(signal.SIGINT) == signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 # --- 14. two runs writing one --out at the same time ------------------------------------------

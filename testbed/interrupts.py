@@ -1,0 +1,61 @@
+"""Ctrl-C and SIGTERM as exceptions that always reach the command line's exit (130, 143).
+
+Python runs a signal handler between two bytecodes of the main thread, wherever it is. When
+that is inside a finalizer (`__del__`: Rerun's RecordingStream has one, and every `log` call
+creates and drops a temporary stream), an exception the handler raised would be printed as
+"Exception ignored in ..." with a traceback and dropped, and the run would go on as if no
+signal had come. So the handlers here look at where they run: inside a finalizer they deliver
+the signal again a millisecond later (`_thread.interrupt_main`), by when the finalizer is over.
+"""
+
+from __future__ import annotations
+
+import _thread
+import contextlib
+import signal
+import threading
+
+REDELIVERY_DELAY_S = 1e-3  # finalizers that run while a signal is handled take microseconds
+
+
+class Terminated(BaseException):
+    """SIGTERM, turned into an exception (like KeyboardInterrupt, not an Exception that a stage's
+    error handling would catch) so that a trace being written is removed on the way out."""
+
+
+def inside_finalizer(frame) -> bool:
+    """Whether `frame` or one of its callers is a `__del__`, where an exception is dropped."""
+    while frame is not None:
+        if frame.f_code.co_name == "__del__":
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _raising(exception: type[BaseException]):
+    def handle(signum, frame):
+        if inside_finalizer(frame):
+            redeliver = threading.Timer(REDELIVERY_DELAY_S, _thread.interrupt_main, (signum,))
+            redeliver.daemon = True
+            redeliver.start()
+            return
+        raise exception()
+    return handle
+
+
+@contextlib.contextmanager
+def signals_as_exceptions():
+    """Within the block (in the main thread; elsewhere it does nothing): SIGINT raises
+    KeyboardInterrupt and SIGTERM raises `Terminated`, both outside any finalizer; a signal the
+    process was started ignoring stays ignored."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {signum: signal.signal(signum, _raising(exception))
+                for signum, exception in ((signal.SIGINT, KeyboardInterrupt), (signal.SIGTERM, Terminated))
+                if signal.getsignal(signum) != signal.SIG_IGN}  # `nohup`, a background job: still ignored
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
