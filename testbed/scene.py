@@ -60,14 +60,23 @@ def moving_parts(model, root: int, hinge_signals: dict[str, tuple[str, int]]) ->
     return parts
 
 
-def hinge_poses(part: dict, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Translation (N, 3) and quaternion (N, 4; w, x, y, z) of a part's frame in its parent's for
-    hinge angles (N,) [rad]: the body frame turned by (angle - qpos0) about the hinge axis through
-    its anchor, as MuJoCo places a hinged body."""
-    hinge = part["hinge"]
-    turn = (np.asarray(angles, float) - hinge["reference"])[:, None] / 2.0
-    joint = np.hstack([np.cos(turn), np.sin(turn) * np.asarray(hinge["axis"], float)])
-    anchor = np.asarray(hinge["anchor"], float)
-    body = np.asarray(part["quat"], float)
-    translations = np.asarray(part["pos"], float) + quat_rotate(body, anchor - quat_rotate(joint, anchor))
-    return translations, quat_mul(body, joint)
+def hinge_poses(parts: list[dict], angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Translation (N, P, 3) and quaternion (N, P, 4; w, x, y, z) of each of P hinged parts' frame
+    in its parent's for hinge angles (N, P) [rad], column p the angle of part p: the body frame
+    b turned by theta = angle - qpos0 about the unit hinge axis k through its anchor a, as
+    MuJoCo places a hinged body. Both are linear in cos and sin of the angle, with constant
+    coefficients per part: q = cos(theta/2) b + sin(theta/2) b o (0, k), and by Rodrigues'
+    formula a - R_k(theta) a = (1 - cos theta)(a - k (k.a)) - sin theta (k x a), turned by b."""
+    hinges = [part["hinge"] for part in parts]
+    axis = np.array([hinge["axis"] for hinge in hinges], float)
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    anchor = np.array([hinge["anchor"] for hinge in hinges], float)
+    body = np.array([part["quat"] for part in parts], float)
+    theta = (np.asarray(angles, float) - np.array([hinge["reference"] for hinge in hinges]))[..., None]
+    turned_axis = quat_mul(body, np.hstack([np.zeros((len(parts), 1)), axis]))
+    quats = np.cos(theta / 2.0) * body + np.sin(theta / 2.0) * turned_axis
+    radial = quat_rotate(body, anchor - axis * np.sum(axis * anchor, axis=1, keepdims=True))
+    tangential = quat_rotate(body, np.cross(axis, anchor))
+    translations = np.array([part["pos"] for part in parts], float) + (1.0 - np.cos(theta)) * radial \
+        - np.sin(theta) * tangential
+    return translations, quats

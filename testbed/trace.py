@@ -386,12 +386,14 @@ def _write_scene(rec, chunk, times, scene: dict) -> None:
             rec.send_columns(entity, indexes=[times],
                              columns=rr.Arrows3D.columns(vectors=vectors, origins=np.zeros_like(vectors),
                                                          colors=np.tile(color, (len(vectors), 1))))
-    for part in scene.get("moving_parts", []):
-        hinge = part["hinge"]
-        if hinge is not None and hinge["signal"] in signals:
-            translations, quats = hinge_poses(part, signals[hinge["signal"]][:, hinge["column"]])
+    hinged = [part for part in scene.get("moving_parts", [])
+              if part["hinge"] is not None and part["hinge"]["signal"] in signals]
+    if hinged:
+        angles = np.column_stack([signals[part["hinge"]["signal"]][:, part["hinge"]["column"]] for part in hinged])
+        translations, quats = hinge_poses(hinged, angles)
+        for p, part in enumerate(hinged):
             rec.send_columns(f"world/bus/{part['entity']}", indexes=[times],
-                             columns=rr.Transform3D.columns(translation=translations, quaternion=_xyzw(quats)))
+                             columns=rr.Transform3D.columns(translation=translations[:, p], quaternion=_xyzw(quats[:, p])))
 
 
 def _xyzw(quat) -> np.ndarray:

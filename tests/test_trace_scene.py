@@ -46,7 +46,11 @@ def test_moving_parts_are_placed_as_mujoco_places_them():
     np.testing.assert_allclose(link["shapes"][0]["size"], [0.1, 0.3])
     assert link["shapes"][0]["rgba"] == [255, 0, 0, 255]
     angles = np.random.default_rng(40).uniform(-3, 3, 20)
-    translations, quats = hinge_poses(link, angles)
+    # the part twice, the second column's angles reversed: each column poses its own part
+    both = hinge_poses([link, link], np.column_stack([angles, angles[::-1]]))
+    np.testing.assert_array_equal(both[0][::-1, 1], both[0][:, 0])
+    np.testing.assert_array_equal(both[1][::-1, 1], both[1][:, 0])
+    translations, quats = both[0][:, 0], both[1][:, 0]
     for angle, t, q in zip(angles, translations, quats):
         data.qpos[:] = model.qpos0
         data.qpos[7] = angle

@@ -166,16 +166,15 @@ class FeedForwardServo(IntVelocityServo):
         inertia = 1.0 / np.diag(inverse)[self._dofs]
         # per gimbal, so that u = kv c - J (p theta + q (b' - c)) - delta^
         #                       = (kv + J q) c - J p theta - J q b' - delta^
-        self._observer_gain = (inertia / self.gamma).tolist()  # J / Gamma_1
-        self._kv_q = (self._kv + inertia * self.q).tolist()     # kv + J q
-        self._jp = (inertia * self.p).tolist()                  # J p
-        self._jq = (inertia * self.q).tolist()                  # J q
+        # (i, J / Gamma_1, kv + J q, J p, J q) a gimbal: one tuple unpacked costs less than four subscripts
+        self._gains = list(zip(range(len(inertia)), (inertia / self.gamma).tolist(),
+                               (self._kv + inertia * self.q).tolist(), (inertia * self.p).tolist(),
+                               (inertia * self.q).tolist()))
         # the observer: delta over the last tick, and delta^ over the coming one (two lists,
         # updated in place every tick, as is the torque)
         self._delta = (-self._bias).tolist()
         self._predicted = list(self._delta)
         self._torque = [0.0] * len(self._delta)
-        self._gimbals = range(len(self._delta))
         self._current = self._previous = self._rate.tolist()  # no rate error before t = 0
 
     def apply(self, data, rates) -> None:
@@ -189,15 +188,15 @@ class FeedForwardServo(IntVelocityServo):
             command, followed = self._clipped(self._current), self._clipped(self._previous)
         rate, angle, setpoint = self._rate.tolist(), self._angle.tolist(), self._setpoint.tolist()
         delta, coming, torque = self._delta, self._predicted, self._torque  # last tick's, overwritten here
-        gain, kv_q, jp, jq = self._observer_gain, self._kv_q, self._jp, self._jq
-        for i in self._gimbals:  # by index and in place: cheaper than zips, comprehensions or new lists
-            delta_i = coming[i] + gain[i] * (rate[i] - followed[i])  # the disturbance the last tick met
-            coming[i] = 2.0 * delta_i - delta[i]  # extrapolated over this tick
+        for i, gain, kv_q, jp, jq in self._gains:  # in place: cheaper than zips, comprehensions or new lists
+            rate_i = rate[i]
+            delta_i = coming[i] + gain * (rate_i - followed[i])  # the disturbance the last tick met
+            coming_i = coming[i] = 2.0 * delta_i - delta[i]  # extrapolated over this tick
             delta[i] = delta_i
-            torque[i] = kv_q[i] * command[i] - jp[i] * (angle[i] - setpoint[i]) - jq[i] * rate[i] - coming[i]
+            torque[i] = kv_q * command[i] - jp * (angle[i] - setpoint[i]) - jq * rate_i - coming_i
         limit = self.torque_limit
         if limit is not None:
-            for i in self._gimbals:
+            for i in range(len(torque)):
                 applied = min(max(torque[i], -limit), limit)
                 # what the motor leaves out counts as disturbance it did not compensate, so the
                 # next tick's residual is read against the torque it really gave
