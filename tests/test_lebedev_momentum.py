@@ -24,6 +24,7 @@ from testbed.observers.lebedev_observer import (
     LebedevObserver,
     gyrostat_error_matrix,
     gyrostat_jacobian,
+    lebedev_matrices,
     lebedev_nonlinearity,
     observability_factor,
 )
@@ -97,8 +98,17 @@ def test_startup_model_and_jacobian_are_the_free_gyrostat():
         step = 1e-6 * abs(spin)
         numeric = np.column_stack([(euler(w + step * e) - euler(w - step * e)) / (2 * step) for e in np.eye(3)])
         assert gyrostat_jacobian(inertia, w, held) == pytest.approx(numeric, rel=1e-6, abs=1e-9 * np.abs(numeric).max())
-        assert gyrostat_jacobian(inertia, [0, 0, spin], held) == pytest.approx(
-            gyrostat_error_matrix(inertia, spin, held), rel=1e-12, abs=1e-15)
+        # at the spin: the paper's A (Lebedev 1976, eq. 4.2) plus I^-1 [H x], [H x] v = H x v
+        _, paper_A = lebedev_matrices(inertia, spin)
+        cross = np.column_stack([np.cross(held, e) for e in np.eye(3)])
+        assert gyrostat_error_matrix(inertia, spin, held) == pytest.approx(
+            paper_A + cross / inertia[:, None], rel=1e-12, abs=1e-15 * np.abs(paper_A).max())
+        stack = rng.normal(size=(4, 3)) * held
+        assert np.array_equal(gyrostat_error_matrix(inertia, spin, stack),
+                              np.stack([gyrostat_error_matrix(inertia, spin, h) for h in stack]))
+        ws = w + rng.normal(size=(4, 3)) * abs(spin)
+        assert np.array_equal(gyrostat_jacobian(inertia, ws, stack),
+                              np.stack([gyrostat_jacobian(inertia, v, h) for v, h in zip(ws, stack)]))
     # a fixed-gain observer ignores H, as before
     fixed = LebedevObserver(SKYLAB_1000, DEG, PAPER_AXIS, [-0.1, -0.1, -0.1])
     z = np.array([1e-3, -2e-3, 5e-4])

@@ -179,23 +179,17 @@ def gyrostat_error_matrix(inertia, spin_rate, momentum):
     A CMG cluster holding H that compensates w x H with the *estimate* w_hat leaves the body
     a torque (w_hat - w) x H = H x e (e = x - z) that eq. 4.6 does not model, so the error obeys
     e' = (A + I^-1 [H x] - l C) e + ... (our extension: the paper's body has external torques).
-    `momentum` may be one H (3,) or a stack (N, 3), giving (3, 3) or (N, 3, 3).
+    It is `gyrostat_jacobian` at w = (0, 0, Omega): there I^-1 ([(I w) x] - [w x] I) is A of
+    Lebedev 1976, eq. 4.2. `momentum` may be one H (3,) or a stack (N, 3), giving (3, 3) or (N, 3, 3).
     """
-    _, A = lebedev_matrices(inertia, spin_rate)
-    h = np.asarray(momentum, dtype=float)
-    if h.ndim == 1:  # one H (every control period with measured momentum): the quick way
-        cross = np.array([[0.0, -h[2], h[1]], [h[2], 0.0, -h[0]], [-h[1], h[0], 0.0]])
-        return A + cross / principal_moments("body.inertia", inertia)[:, None]
-    zero = np.zeros(h.shape[:-1])
-    cross = np.stack([np.stack([zero, -h[..., 2], h[..., 1]], -1),
-                      np.stack([h[..., 2], zero, -h[..., 0]], -1),
-                      np.stack([-h[..., 1], h[..., 0], zero], -1)], -2)
-    return A + cross / principal_moments("body.inertia", inertia)[:, None]
+    moments = principal_moments("body.inertia", inertia)
+    return gyrostat_jacobian(moments, [0.0, 0.0, float(spin_rate)], momentum)
 
 
 def gyrostat_jacobian(moments, w, momentum) -> np.ndarray:
     """d/dw of w' = I^-1 ((I w + H) x w), the free body holding internal momentum H:
-    I^-1 ([(I w + H) x] - [w x] I), `moments` = (Ix, Iy, Iz) [kg m^2], w [rad/s], H [N m s].
+    I^-1 ([(I w + H) x] - [w x] I), `moments` = (Ix, Iy, Iz) [kg m^2], w [rad/s], H [N m s];
+    w and H may be stacks (..., 3), giving (..., 3, 3).
 
     At w = (0, 0, Omega) it is `gyrostat_error_matrix` (A + I^-1 [H x]). Once the loop is closed
     it is also the linearisation of the observer error: the body feels M - w x I w + H x e and
@@ -205,9 +199,16 @@ def gyrostat_jacobian(moments, w, momentum) -> np.ndarray:
     moments = np.asarray(moments, float)
     w = np.asarray(w, float)
     L = moments * w + np.asarray(momentum, float)
-    return np.array([[0.0, -L[2] + w[2] * moments[1], L[1] - w[1] * moments[2]],
-                     [L[2] - w[2] * moments[0], 0.0, -L[0] + w[0] * moments[2]],
-                     [-L[1] + w[1] * moments[0], L[0] - w[0] * moments[1], 0.0]]) / moments[:, None]
+    if L.ndim == 1:  # one (w, H), as every control period with measured momentum asks: the quick way
+        return np.array([[0.0, -L[2] + w[2] * moments[1], L[1] - w[1] * moments[2]],
+                         [L[2] - w[2] * moments[0], 0.0, -L[0] + w[0] * moments[2]],
+                         [-L[1] + w[1] * moments[0], L[0] - w[0] * moments[1], 0.0]]) / moments[:, None]
+    w = np.broadcast_to(w, L.shape)
+    zero = np.zeros(L.shape[:-1])
+    return np.stack([np.stack([zero, -L[..., 2] + w[..., 2] * moments[1], L[..., 1] - w[..., 1] * moments[2]], -1),
+                     np.stack([L[..., 2] - w[..., 2] * moments[0], zero, -L[..., 0] + w[..., 0] * moments[2]], -1),
+                     np.stack([-L[..., 1] + w[..., 1] * moments[0], L[..., 0] - w[..., 0] * moments[1], zero], -1)],
+                    -2) / moments[:, None]
 
 
 def lebedev_torque(inertia, k, z):
