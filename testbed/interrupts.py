@@ -32,12 +32,18 @@ def inside_finalizer(frame) -> bool:
     return False
 
 
-def _raising(exception: type[BaseException]):
+def _raising(exception: type[BaseException], active: threading.Event):
+    """A handler that raises `exception`, or inside a finalizer delivers its signal again later,
+    while `active` is set (once the block has ended, a late repeat would land outside it)."""
+    def redeliver(signum):
+        if active.is_set():
+            _thread.interrupt_main(signum)
+
     def handle(signum, frame):
         if inside_finalizer(frame):
-            redeliver = threading.Timer(REDELIVERY_DELAY_S, _thread.interrupt_main, (signum,))
-            redeliver.daemon = True
-            redeliver.start()
+            later = threading.Timer(REDELIVERY_DELAY_S, redeliver, (signum,))
+            later.daemon = True
+            later.start()
             return
         raise exception()
     return handle
@@ -51,11 +57,14 @@ def signals_as_exceptions():
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = {signum: signal.signal(signum, _raising(exception))
+    active = threading.Event()
+    active.set()
+    previous = {signum: signal.signal(signum, _raising(exception, active))
                 for signum, exception in ((signal.SIGINT, KeyboardInterrupt), (signal.SIGTERM, Terminated))
                 if signal.getsignal(signum) != signal.SIG_IGN}  # `nohup`, a background job: still ignored
     try:
         yield
     finally:
+        active.clear()
         for signum, handler in previous.items():
             signal.signal(signum, handler)

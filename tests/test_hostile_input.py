@@ -1286,6 +1286,33 @@ def test_signal_that_arrives_inside_a_finalizer(cli, signalling_plugin, sig, exp
     assert everything_in(result.cwd) == []
 
 
+class _SignalsWhenCollected:
+    """Raises SIGINT in its own finalizer: the handler runs inside the __del__."""
+
+    def __del__(self):
+        signal.raise_signal(signal.SIGINT)
+
+
+def test_a_signal_inside_a_finalizer_is_raised_after_it():
+    """In process: the handler, run inside a __del__, does not raise there (Python would drop it)
+    but repeats the signal a moment later, outside, where it raises KeyboardInterrupt."""
+    from testbed.interrupts import signals_as_exceptions
+
+    with pytest.raises(KeyboardInterrupt), signals_as_exceptions():
+        _SignalsWhenCollected()
+        time.sleep(1.0)  # the repeat lands here
+
+
+def test_a_repeat_after_the_block_has_ended_is_dropped():
+    """The repeat of a signal handled inside a finalizer just before the block ends would land
+    outside it, under the default handler: it is not sent."""
+    from testbed.interrupts import REDELIVERY_DELAY_S, signals_as_exceptions
+
+    with signals_as_exceptions():
+        _SignalsWhenCollected()
+    time.sleep(50 * REDELIVERY_DELAY_S)  # a KeyboardInterrupt here fails the test
+
+
 def test_a_signal_ignored_at_start_stays_ignored():
     """`nohup testbed run ...` or a background job of a non-interactive shell starts with SIGINT
     ignored: the command line's handlers must not make such a run stoppable by it."""
