@@ -74,9 +74,10 @@ def reductions(scenario) -> list:
                               if not isinstance(u, str)))
 
 
-def validate_checks(scenario) -> None:
+def validate_checks(scenario, checks) -> None:
+    """Refuse a check (a name of `checks`) that names no metric `scenario` produces."""
     names = available(scenario)
-    for name in scenario.checks:
+    for name in checks:
         if name not in names:
             raise InputError(f"checks.{name}", f"no such metric for this scenario (available: {', '.join(names)})")
 

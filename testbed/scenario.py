@@ -142,7 +142,7 @@ class _RawScenario:
     sim: SimConfig = param()
     pipeline: dict[str, Any] = param({})
     reference: dict[str, Any] | None = None
-    checks: dict[str, CheckLimit] = param({})
+    checks: dict[str, Any] = param({})      # each a CheckLimit, read once its metric is known
     sweep: dict[str, Any] | None = None     # testbed.sweep expands it; `run` ignores it
 
 
@@ -180,8 +180,11 @@ def parse(data: dict, source: str = "") -> Scenario:
     if raw.reference is not None:
         reference = references_registry.load_params(raw.reference, "reference")
     scenario = Scenario(raw.name, raw.description, system_name, model, raw.initial, raw.sim,
-                        stages, reference, raw.checks, source)
-    metrics.validate_checks(scenario)  # after the scenario exists: checks name metrics it produces
+                        stages, reference, {}, source)
+    # after the scenario exists (its metrics depend on it): first that each check names one of
+    # them, then its limits, so that `checks.typo.max` is refused as a metric, not as a limit
+    metrics.validate_checks(scenario, raw.checks)
+    scenario.checks = {name: schema.load(CheckLimit, limits, f"checks.{name}") for name, limits in raw.checks.items()}
     return scenario
 
 

@@ -41,6 +41,8 @@ def _with(path: str, value):
     ("pipeline.turbo", "{type: none}", "pipeline.turbo", "unknown slot"),
     ("reference.type", "oracle", "reference.type", "unknown reference"),
     ("checks.happiness", "{max: 1}", "checks.happiness", "no such metric"),
+    ("checks.happiness", "{b: {max: 1}}", "checks.happiness", "no such metric"),  # the metric before its limits
+    ("checks.momentum_drift_rel", "{max: fast}", "checks.momentum_drift_rel.max", "must be a number"),
     ("checks.momentum_drift_rel", "{}", "checks.momentum_drift_rel", "give max or min"),
     ("checks.momentum_drift_rel", "{max: 1e-9, typo: 2}", "checks.momentum_drift_rel.typo", "unknown key"),
 ])
