@@ -10,7 +10,8 @@ finishes: fn's return value, or `WorkerDied` when the worker process running it 
 The command places the tasks itself, DEPTH per worker thread (one running, the next waiting on
 that worker so that it starts the moment the first ends, with no round trip to the command),
 and the next as one finishes. A worker runs its tasks oldest first, so when it dies the
-oldest task out on it is the one that killed it: that case is handed out once more (the
+oldest task out on it when the first of its tasks is reported dead is the one that killed it
+(the others may be reported in any order): that case is handed out once more (the
 local scheduler reports every task of a dead worker at once, allowed-failures 0; another
 scheduler first retries them by its own setting, Dask's default 3 times), then reported as
 an error row; the one that waited behind it goes back in the queue, not counted. Results are
@@ -128,6 +129,7 @@ class Engine:
         deaths: dict[str, int] = {}         # name -> how often a worker died running it
         out: dict = {}                      # future -> (args, worker address)
         queues: dict[str, list] = {}        # worker address -> its futures, oldest first
+        blame: dict = {}                    # future out on a worker that died -> whether it was the oldest
         finished = as_completed([], with_results=True, raise_errors=False)
 
         def hand_out() -> None:
@@ -150,12 +152,18 @@ class Engine:
                     continue
                 future, outcome = next(finished)
                 args, address = out.pop(future)
-                culprit = queues[address][0] is future
-                queues[address].remove(future)
                 failed = future.status == "error"
                 future.release()
                 if isinstance(outcome, BaseException):  # cancelled: the cluster went away
                     raise outcome
+                if failed and isinstance(outcome[1], KilledWorker) and future not in blame:
+                    # the first of a dead worker's tasks to be reported: the oldest out on it then
+                    # is the one that killed it, whatever order the others are reported in
+                    dead = queues.pop(address, [])
+                    blame.update({f: i == 0 for i, f in enumerate(dead)})
+                culprit = blame.pop(future, False)
+                if future in queues.get(address, ()):
+                    queues[address].remove(future)
                 if failed:  # outcome is (type, exception, traceback)
                     if not isinstance(outcome[1], KilledWorker):
                         raise outcome[1]
