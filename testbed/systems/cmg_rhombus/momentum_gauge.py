@@ -42,8 +42,18 @@ def envelope_support(u, axes, rotor_momenta) -> np.ndarray:
     """S(u) = Σ_i h_i |u × g_i| [N m s] for unit directions u (m, 3): the largest u·H the cluster
     can hold (module doc); `rotor_momenta` h_i (n,) or one h for all."""
     g = unit_axes(axes)
-    h = np.broadcast_to(np.asarray(rotor_momenta, dtype=float), (g.shape[0],))
-    return np.linalg.norm(np.cross(np.atleast_2d(u)[:, None, :], g[None, :, :]), axis=-1) @ h
+    return _support(np.atleast_2d(u), g, np.broadcast_to(np.asarray(rotor_momenta, dtype=float), (g.shape[0],)))
+
+
+def _support(u, g, h) -> np.ndarray:
+    """`envelope_support` for unit directions u (m, 3), validated unit axes g (n, 3) and h (n,):
+    |u x g_i| from the cross product's components (np.cross's products, without its per-call
+    cost: the gauge's search asks for S at every step)."""
+    u = u[:, None, :]
+    c0 = u[..., 1] * g[:, 2] - u[..., 2] * g[:, 1]
+    c1 = u[..., 2] * g[:, 0] - u[..., 0] * g[:, 2]
+    c2 = u[..., 0] * g[:, 1] - u[..., 1] * g[:, 0]
+    return np.sqrt(c0 * c0 + c1 * c1 + c2 * c2) @ h
 
 
 def envelope_gauge(momenta, axes, rotor_momenta, n=GAUGE_DIRECTIONS) -> tuple[np.ndarray, np.ndarray]:
@@ -57,13 +67,14 @@ def envelope_gauge(momenta, axes, rotor_momenta, n=GAUGE_DIRECTIONS) -> tuple[np
     Every u gives a lower bound, so a gauge above 1 is certain: P lies beyond the plane
     u·H = S(u), which no gimbal state crosses."""
     g = unit_axes(axes)
+    h = np.broadcast_to(np.asarray(rotor_momenta, dtype=float), (g.shape[0],))
     P = np.atleast_2d(np.asarray(momenta, dtype=float))
 
     def ratio(u):   # u·P / S(u) for one direction per point, u (m, 3) unit
-        return np.einsum("ij,ij->i", u, P) / envelope_support(u, g, rotor_momenta)
+        return np.einsum("ij,ij->i", u, P) / _support(u, g, h)
 
     sampled = [fibonacci_sphere(n), np.concatenate([g, -g])]
-    results = [_compass_search(ratio, *_best_sampled(P, u, g, rotor_momenta), np.sqrt(4.0 * np.pi / n))
+    results = [_compass_search(ratio, *_best_sampled(P, u, g, h), np.sqrt(4.0 * np.pi / n))
                for u in sampled]
     # the best of two searches: from the best smooth sample and from the best kink ±g_i (a
     # maximum near a kink lies in a narrow wedge the search from the kink may miss)
@@ -73,9 +84,9 @@ def envelope_gauge(momenta, axes, rotor_momenta, n=GAUGE_DIRECTIONS) -> tuple[np
     return gauge, direction
 
 
-def _best_sampled(P, u, axes, rotor_momenta):
+def _best_sampled(P, u, g, h):
     """(ratio, direction) of the sampled directions u (k, 3) with the largest u·P / S(u), per point."""
-    ratios = (P @ u.T) / envelope_support(u, axes, rotor_momenta)
+    ratios = (P @ u.T) / _support(u, g, h)
     best = np.argmax(ratios, axis=1)
     return ratios[np.arange(len(P)), best], u[best]
 
