@@ -1,4 +1,5 @@
-# The README's two commands. Each sets up .venv (once, re-done when pyproject.toml changes).
+# The README's two commands. Each sets up .venv (once, re-done when pyproject.toml or the lock
+# changes) with the exact versions in requirements.lock, then the project itself without its ranges.
 PY := .venv/bin/python
 FLAGSHIP ?= lebedev_spinup_cmg
 
@@ -18,7 +19,8 @@ bench: .venv/.installed
 	$(PY) bench/bench_minimax.py
 	$(PY) bench/bench_sweep.py
 
-.venv/.installed: pyproject.toml
+.venv/.installed: pyproject.toml requirements.lock
 	python3 -m venv .venv
-	$(PY) -m pip install --quiet --disable-pip-version-check -e '.[test]'
+	$(PY) -m pip install --quiet --disable-pip-version-check -r requirements.lock
+	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -e .
 	touch $@

@@ -293,6 +293,7 @@ def test_fuzz_mutated_scenarios_quick(case, fuzz_root, capfd):
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(900)  # 3000 examples: about 2 min on a quiet machine, 5 under load
 @settings(max_examples=3000, **SETTINGS)
 @given(case=hostile_inputs(kinds=("replace", "extreme", "delete", "resize", "add_key", "non_mapping", "bytes", "set")
                            + ("perturb",) * 6))
