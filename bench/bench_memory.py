@@ -36,7 +36,8 @@ with tempfile.TemporaryDirectory() as tmp:
         import rerun as rr
         server = rr.RecordingStream("bench-sink")  # kept: the server lives as long as its stream
         url = server.serve_grpc(grpc_port=9897, server_memory_limit="64MB")
-        live = [rr.GrpcSink(url)]
+        from testbed.live_view import ViewerStream
+        live = ViewerStream(url)
     t0, c0 = time.perf_counter(), time.process_time()
     result = run_scenario(scenario, Path(tmp) / "run.rrd" if write else None, live=live)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0

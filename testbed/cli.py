@@ -14,9 +14,9 @@ import sys
 import warnings
 from pathlib import Path
 
-from testbed import api, sweep_cli, trace  # sweep_cli registers the `sweep` subcommand
+from testbed import api, live_view, sweep_cli, trace  # sweep_cli registers the `sweep` subcommand
 from testbed import init_command  # noqa: F401  (registers the `init` subcommand)
-from testbed.commands import COMMANDS
+from testbed.commands import COMMANDS, reported
 from testbed.errors import InputError
 from testbed.interrupts import Terminated, signals_as_exceptions
 from testbed.plugins import discover
@@ -24,8 +24,6 @@ from testbed.progress import advance_to, progress_bar
 from testbed.runner import run_scenario
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
-VIEWER_URL = "rerun+http://127.0.0.1:{port}/proxy"
-VIEWER_PORT = 9876  # Rerun's default
 
 
 class _Parser(argparse.ArgumentParser):
@@ -47,7 +45,7 @@ def _parser() -> argparse.ArgumentParser:
                       help="spawn the Rerun viewer and stream the run to it as it goes (the .rrd is written too)")
     live.add_argument("--connect", metavar="URL",
                       help="stream the run as it goes to a Rerun viewer or server already running, "
-                           f"e.g. {VIEWER_URL.format(port=9876)} (the .rrd is written too)")
+                           f"e.g. {live_view.VIEWER_URL.format(port=live_view.VIEWER_PORT)} (the .rrd is written too)")
     check = sub.add_parser("check", help="run scenarios and print a table of their checks")
     check.add_argument("scenarios", nargs="*", help="files or names (default: all in scenarios/)")
     check.add_argument("--out-dir", default="runs", help="where the .rrd files go")
@@ -65,30 +63,25 @@ def _parser() -> argparse.ArgumentParser:
 def _run_one(name: str, overrides, out: str | None, show_progress: bool, view: bool = False, connect: str | None = None):
     scenario = api.load(name, overrides)
     out_path = trace.output_path(Path("runs") / f"{trace.file_stem(scenario.name)}.rrd" if out is None else out)
-    return _run_loaded(scenario, out_path, show_progress, _live_sinks(view, connect))
+    live = _live_view(view, connect)
+    result = _run_loaded(scenario, out_path, show_progress, live)
+    if live is not None and not live.complete:
+        print(f"note: the viewer at {live.url} did not take the whole run within {live_view.CLOSE_S:g} s; "
+              f"the trace file holds it", file=sys.stderr)
+    return result
 
 
-def _live_sinks(view: bool, connect: str | None) -> list:
-    """The Rerun sinks a run is streamed to besides its file: a viewer spawned now (`--view`),
-    or one already running at `connect`. Called after the scenario is validated."""
+def _live_view(view: bool, connect: str | None):
+    """The viewer a run is streamed to besides its file (testbed.live_view): one started now
+    (`--view`) or one already running at `connect`, refused before the run when there is none.
+    Called after the scenario is validated."""
     if not view and connect is None:
-        return []
-    import rerun as rr
-
-    if view:
-        beside = Path(sys.executable).with_name("rerun")  # the viewer installed with the SDK
-        try:
-            rr.spawn(port=VIEWER_PORT, connect=False, executable_path=str(beside) if beside.exists() else None)
-        except (OSError, RuntimeError) as exc:
-            raise InputError("--view", f"cannot start the Rerun viewer: {exc}") from None
-        connect = VIEWER_URL.format(port=VIEWER_PORT)
-    try:
-        return [rr.GrpcSink(connect)]
-    except (RuntimeError, ValueError) as exc:
-        raise InputError("--connect", str(exc)) from None
+        return None
+    url = live_view.start_viewer() if view else live_view.check_reachable(connect)
+    return live_view.ViewerStream(url)
 
 
-def _run_loaded(scenario, out_path, show_progress: bool, live: list | None = None):
+def _run_loaded(scenario, out_path, show_progress: bool, live=None):
     duration = scenario.sim.duration_s
     with progress_bar(scenario.name, duration, "sim s") as bar:
         bar.disable = bar.disable or not show_progress
@@ -120,11 +113,8 @@ def _print_checks(rows) -> None:
 def _cmd_run(args) -> int:
     tty = sys.stderr.isatty() and not args.json
     result = _run_one(args.scenario, args.set, args.out, tty, args.view, args.connect)
-    if args.json:
-        print(json.dumps(result.as_json()))
-    else:
-        _print_summary(result)
-    return EXIT_OK if result.passed else EXIT_FAILED
+    return reported(EXIT_OK if result.passed else EXIT_FAILED,
+                    lambda: print(json.dumps(result.as_json())) if args.json else _print_summary(result))
 
 
 def _cmd_check(args) -> int:
@@ -138,14 +128,16 @@ def _cmd_check(args) -> int:
     outs = [trace.output_path(Path(args.out_dir) / f"{trace.file_stem(Path(n).stem)}.rrd", "--out-dir") for n in names]
     show = sys.stderr.isatty() and not args.json
     results = [_run_loaded(scenario, out, show) for scenario, out in zip(scenarios, outs)]
-    if args.json:
-        print(json.dumps([r.as_json() for r in results]))
-    else:
+
+    def report():
+        if args.json:
+            print(json.dumps([r.as_json() for r in results]))
+            return
         _print_checks([(r.scenario, c) for r in results for c in r.checks])
         for r in results:
             if r.error:
                 print(f"{r.scenario}: {r.error}")
-    return EXIT_OK if all(r.passed for r in results) else EXIT_FAILED
+    return reported(EXIT_OK if all(r.passed for r in results) else EXIT_FAILED, report)
 
 
 def _cmd_list(args) -> int:
@@ -155,13 +147,15 @@ def _cmd_list(args) -> int:
     paths = sorted(SCENARIO_DIR.glob("*.yaml"))
     if not paths:  # an install without its scenario files is broken, not an empty list
         raise InputError("list", f"no scenario files (*.yaml) in {SCENARIO_DIR}")
-    for path in paths:
-        try:
-            description = str(read_yaml(path).get("description") or "").strip().splitlines()
-        except InputError as exc:  # one broken file does not hide the others
-            description = [f"(cannot be read: {exc.reason})"]
-        print(f"{path.stem:28s} {description[0] if description else ''}")
-    return EXIT_OK
+
+    def report():
+        for path in paths:
+            try:
+                description = str(read_yaml(path).get("description") or "").strip().splitlines()
+            except InputError as exc:  # one broken file does not hide the others
+                description = [f"(cannot be read: {exc.reason})"]
+            print(f"{path.stem:28s} {description[0] if description else ''}")
+    return reported(EXIT_OK, report)
 
 
 def _cmd_inspect(args) -> int:
@@ -170,20 +164,22 @@ def _cmd_inspect(args) -> int:
     api.read(args.rrd)  # refuses an empty name, a missing, foreign or damaged file (InputError)
     path = Path(args.rrd)
     info = read_rrd(path)
-    if args.json:
-        print(json.dumps(info))
-        return EXIT_OK
-    result = info["result"]
-    print(f"{path}: scenario {result['scenario']}, status {result['status']}, "
-          f"sim_time {info['time_span_s'][0]:g} .. {info['time_span_s'][1]:g} s")
-    print("entities:")
-    for entity, rows in sorted(info["entities"].items()):
-        print(f"  {entity:44s} {rows} rows")
-    print("metrics:")
-    for name, value in result["metrics"].items():
-        print(f"  {name:32s} {value:.6g}")
-    _print_checks([(result["scenario"], c) for c in result["checks"]])
-    return EXIT_OK
+
+    def report():
+        if args.json:
+            print(json.dumps(info))
+            return
+        result = info["result"]
+        print(f"{path}: scenario {result['scenario']}, status {result['status']}, "
+              f"sim_time {info['time_span_s'][0]:g} .. {info['time_span_s'][1]:g} s")
+        print("entities:")
+        for entity, rows in sorted(info["entities"].items()):
+            print(f"  {entity:44s} {rows} rows")
+        print("metrics:")
+        for name, value in result["metrics"].items():
+            print(f"  {name:32s} {value:.6g}")
+        _print_checks([(result["scenario"], c) for c in result["checks"]])
+    return reported(EXIT_OK, report)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -204,9 +200,9 @@ def main(argv: list[str] | None = None) -> int:
     except Terminated:
         print("terminated", file=sys.stderr)
         return 143
-    except BrokenPipeError:  # the reader of stdout went away (`testbed list | head -1`)
+    except BrokenPipeError:  # the reader of stdout went away where no command's status was known yet
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
-        return EXIT_OK
+        return EXIT_FAILED
 
 
 if __name__ == "__main__":

@@ -7,6 +7,10 @@ picture of its actuator envelope).
 
 from __future__ import annotations
 
+import os
+import sys
+from typing import Callable
+
 from testbed.registry import Registry
 
 COMMANDS = Registry("command")
@@ -18,3 +22,14 @@ def command(name: str):
         return add_parser
 
     return register
+
+
+def reported(status: int, report: Callable[[], None]) -> int:
+    """`status`, once `report()` has printed the command's output: a reader of stdout that went
+    away (`testbed run ... | head -1`) cuts the output short but leaves the status as it is."""
+    try:
+        report()
+        sys.stdout.flush()
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+    return status

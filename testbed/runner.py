@@ -118,13 +118,13 @@ def stage_context(scenario, inertia, description=None, actuators=None, internal_
 
 
 def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = False,
-                 live: list | None = None, on_prepared=None) -> RunResult:
+                 live=None, on_prepared=None) -> RunResult:
     """Run `scenario`, stream the trace to `out` (None: no file) and evaluate its checks;
     `keep_data` keeps the whole trace and what the metrics saw in the result (otherwise only the
     signals the metrics need are kept: memory does not grow with the run for metrics that are
-    running reductions); `live`: further Rerun sinks (a viewer) the trace is streamed to as it
-    goes; the file and the sinks get a chunk at least every FLUSH_AFTER_S of wall time;
-    `progress(fraction)` is called about 200 times; `on_prepared(plant, pipeline)` sees the
+    running reductions); `live`: a viewer (testbed.live_view.ViewerStream) the trace is also
+    streamed to as it goes, never waited for; the file and the viewer get a chunk at least
+    every FLUSH_AFTER_S of wall time; `progress(fraction)` is called about 200 times; `on_prepared(plant, pipeline)` sees the
     built plant and stages before the first step (a campaign reads back what the case runs with)."""
     with one_blas_thread():
         return _run(scenario, out, progress, keep_data, live, on_prepared)
@@ -154,7 +154,7 @@ def _run(scenario, out, progress, keep_data, live, on_prepared) -> RunResult:
     reductions = Reductions(metrics.reductions(scenario))
     status, error = "ok", None
     footer = steps // trace_every <= trace.FOOTER_MAX_SAMPLES  # a long run: no footer (recording_to)
-    with (trace.recording_to(out, live=live, footer=footer) if out is not None or live
+    with (trace.recording_to(out, live=live, footer=footer) if out is not None or live is not None
           else contextlib.nullcontext()) as rec:
         writer = trace.TraceWriter(rec, scenario.name, n_ticks * sim.control_period_s, plant.scene(),
                                    envelope_rows=sim.envelope_rows) if rec else None

@@ -26,7 +26,7 @@ import os
 import sys
 from pathlib import Path
 
-from testbed.commands import command
+from testbed.commands import command, reported
 from testbed.errors import InputError
 from testbed.progress import advance_to, progress_bar
 
@@ -115,14 +115,16 @@ def run(args) -> int:
         table, done = open_table(out, name, data, cases, args)
         rows = _run_into(table, done, cases, engine, out if args.rrd else None, args)
     lines = summarise(name, data, rows, cases, out, args)
-    if args.json:
-        print(json.dumps(rows))
-    else:
+
+    def report():
+        if args.json:
+            print(json.dumps(rows))
+            return
         passed = sum(r["passed"] for r in rows)
         print(f"sweep {name}: {len(rows)} cases, {passed} passed, {len(rows) - passed} failed; "
               f"table {table.csv_path} (and .parquet), summary in {out / 'summary'}")
         print("\n".join(lines))
-    return EXIT_OK if all(r["passed"] for r in rows) else EXIT_FAILED
+    return reported(EXIT_OK if all(r["passed"] for r in rows) else EXIT_FAILED, report)
 
 
 def summarise(name: str, data: dict, rows: list[dict], cases, out: Path, args) -> list[str]:
@@ -203,13 +205,15 @@ def _rerun_case(args) -> int:
     _, _, (case,) = load_cases(args.scenario, args.set, [args.case])
     rrd = output_path(output_folder(args, name) / f"case{case.index:04d}.rrd")
     row = run_case(case, str(rrd))
-    if args.json:
-        print(json.dumps(row))
-    else:
+
+    def report():
+        if args.json:
+            print(json.dumps(row))
+            return
         print(f"case {case.index} of {name} (seed {case.seed}): {row['status']}"
               f"{'' if row['passed'] else ': ' + _why(row)}")
         for key, value in row.items():
             if key not in ("case", "status", "passed", "error", "seed"):
                 print(f"  {key:44s} {value}")
         print(f"trace: {rrd}")
-    return EXIT_OK if row["passed"] else EXIT_FAILED
+    return reported(EXIT_OK if row["passed"] else EXIT_FAILED, report)

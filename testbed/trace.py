@@ -30,12 +30,13 @@ from pathlib import Path
 import numpy as np
 
 # A trace written without Rerun's footer (a long run, `recording_to`) is our documented choice:
-# silence the warning Rerun prints for each such file, unless the user set RUST_LOG. Rerun reads
-# it once, when first imported; it is taken out again so that processes started later (a viewer)
-# do not inherit it.
+# silence the warning Rerun prints for each such file, unless the user set RUST_LOG; and a viewer
+# that goes away mid-run is said once at the end (testbed.live_view), not once a flush by Rerun's
+# gRPC client. Rerun reads it once, when first imported; it is taken out again so that processes
+# started later (a viewer) do not inherit it.
 _SILENCED = "RUST_LOG" not in os.environ
 if _SILENCED:
-    os.environ["RUST_LOG"] = "warn,re_log_encoding::rrd::file_sink=error"
+    os.environ["RUST_LOG"] = "warn,re_log_encoding::rrd::file_sink=error,re_grpc_client=off,re_sdk::recording_stream=off"
 import rerun as rr  # noqa: E402
 if _SILENCED:
     del os.environ["RUST_LOG"]
@@ -233,36 +234,44 @@ class TraceWriter:
 
 
 @contextlib.contextmanager
-def recording_to(path, application: str = APP_ID, live: list | None = None, footer: bool = True):
+def recording_to(path, application: str = APP_ID, live=None, footer: bool = True):
     """A Rerun recording saved to a unique temporary file beside `path` (None: no file) and
     renamed onto it when the block ends (atomic): an interrupted write leaves nothing behind
     (the temporary file is removed on any exception, Ctrl-C and SIGTERM included), two writers
     of one path each leave a whole file, and a process killed outright (SIGKILL) leaves the
-    temporary file `.<name>.<random>.partial`, readable up to its last flush. `live`: further
-    Rerun sinks (`rr.GrpcSink(url)` for a viewer) that receive the same stream. `footer`: end
-    the file with Rerun's footer, a manifest of every chunk for random access, which Rerun
-    keeps in memory until the end (about 200 B a chunk, a chunk per signal and flush): a long
-    run goes without it, so that its memory does not grow with its duration (README "Long
-    runs"; `rerun rrd optimize` adds it afterwards)."""
+    temporary file `.<name>.<random>.partial`, readable up to its last flush. `live`: a viewer
+    (testbed.live_view.ViewerStream) that gets the same stream without the file ever waiting
+    for it. `footer`: end the file with Rerun's footer, a manifest of every chunk for random
+    access, which Rerun keeps in memory until the end (about 200 B a chunk, a chunk per signal
+    and flush): a long run goes without it, so that its memory does not grow with its duration
+    (README "Long runs"; `rerun rrd optimize` adds it afterwards)."""
     partial, rec = None, None
+    recording_id = str(uuid.uuid4())
     try:
-        # the stream before the file: a signal sent once the .partial exists cannot land in the
-        # stream's constructor (a half-built stream prints a traceback when collected)
-        rec = rr.RecordingStream(application, recording_id=str(uuid.uuid4()))
-        sinks = list(live or [])
         if path is not None:
+            # the stream before the file: a signal sent once the .partial exists cannot land in
+            # the stream's constructor (a half-built stream prints a traceback when collected)
+            rec = rr.RecordingStream(application, recording_id=recording_id)
             path = Path(path)
             path.parent.mkdir(parents=True, exist_ok=True)
             handle, partial = partial_beside(path)
             os.close(handle)
-            sinks.append(rr.FileSink(partial, write_footer=footer))
-        rec.set_sinks(*sinks)  # before logging, so nothing is buffered for a viewer
-        yield rec
-        rec.flush()
-        rec.disconnect()
+            rec.set_sinks(rr.FileSink(partial, write_footer=footer))  # before logging: nothing buffered
+        if live is not None:
+            from testbed.live_view import Tee
+
+            live.open(application, recording_id)
+        yield rec if live is None else Tee(rec, live)
+        if rec is not None:
+            rec.flush()
+            rec.disconnect()
         if partial is not None:
             publish(partial, path)
+        if live is not None:
+            live.close()
     except BaseException:
+        if live is not None:
+            live.close(timeout=0.0)  # an interrupted run ends at once, whatever the viewer does
         if rec is not None:
             rec.disconnect()
         if partial is not None:
@@ -479,8 +488,10 @@ def read_rrd(path: Path) -> dict:
             column = batch.column(TIMELINE).cast("int64").to_numpy()
             if len(column):
                 t_min, t_max = min(t_min, column.min() / 1e9), max(t_max, column.max() / 1e9)
-        if entity == f"/{RESULT_ENTITY}":
-            result = json.loads(batch.column("TextDocument:text")[0].as_py()[0])
+        if entity == f"/{RESULT_ENTITY}" and batch.num_rows:
+            # the last row written: a run that stops before its first flush has its "did not
+            # finish" placeholder and its result in one chunk
+            result = json.loads(batch.column("TextDocument:text")[batch.num_rows - 1].as_py()[0])
     if result is None:
         raise ValueError(f"{path}: no {RESULT_ENTITY} entity: not a testbed run")
     span = [float(t_min), float(t_max)] if np.isfinite(t_min) else [0.0, 0.0]

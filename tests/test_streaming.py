@@ -158,7 +158,8 @@ def test_a_live_sink_receives_the_run_in_chunks_before_it_ends(receiver, tmp_pat
     import time
     import warnings
 
-    from testbed.cli import _live_sinks, main
+    from testbed.cli import main
+    from testbed.live_view import ViewerStream
     from testbed.runner import run_scenario
     from testbed.scenario import load_scenario
 
@@ -177,8 +178,9 @@ def test_a_live_sink_receives_the_run_in_chunks_before_it_ends(receiver, tmp_pat
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the receiver's file has no footer until it closes
-        result = run_scenario(scenario, tmp_path / "live.rrd", progress=progress, live=_live_sinks(False, url))
-        assert result.status == "ok" and (tmp_path / "live.rrd").exists()
+        live = ViewerStream(url)
+        result = run_scenario(scenario, tmp_path / "live.rrd", progress=progress, live=live)
+        assert result.status == "ok" and (tmp_path / "live.rrd").exists() and live.complete
         assert during and 2 * CHUNK_ROWS <= during[0] - 1 < samples  # more than one chunk, not all of it
         deadline = time.monotonic() + 30
         while _rows_received(received, "/truth/omega") < samples + 1 and time.monotonic() < deadline:
