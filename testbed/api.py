@@ -13,12 +13,14 @@ The command line (`testbed run | check | inspect`) is built on these three funct
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from testbed.errors import InputError
 from testbed.math.validation import existing_file
 from testbed.runner import RunResult, run_scenario
 from testbed.scenario import Scenario, load_scenario, parse
+from testbed.scenario_yaml import as_loaded
 from testbed.trace import read_rrd, read_signals
 
 
@@ -30,12 +32,15 @@ def load(name_or_path: str | Path, overrides: list[str] = ()) -> Scenario:
 
 def run(scenario: Scenario | str | Path | dict, out: str | Path | None = None,
         overrides: list[str] = (), progress=None) -> RunResult:
-    """Run a scenario (a `Scenario`, a name or path, or a raw mapping as a YAML file holds it) and
-    return its result with the whole trace; `out` also writes the `.rrd` there."""
+    """Run a scenario (a `Scenario`, a name or path, or a raw mapping as a YAML file holds it:
+    strings such as '1e-4' that the project's loader reads as numbers are numbers here too) and
+    return its result with the whole trace; `out` (a path) also writes the `.rrd` there."""
+    if out is not None and not isinstance(out, (str, os.PathLike)):
+        raise InputError("out", f"must be a file path (str or pathlib.Path) or None, got {type(out).__name__}")
     if isinstance(scenario, dict):
         if overrides:
             raise InputError("overrides", "apply overrides to the mapping itself")
-        scenario = parse(scenario)
+        scenario = parse(as_loaded(scenario))  # validated as the same mapping read from a file
     elif not isinstance(scenario, Scenario):
         scenario = load(scenario, overrides)
     elif overrides:

@@ -93,8 +93,26 @@ def _failure_place(exc: BaseException, where: str) -> str:
     return f"{frames[-1].filename}:{frames[-1].lineno}" if frames else where
 
 
+def _imported_from(path: Path):
+    """The module already imported from the file `path` (resolved), under any name, else None."""
+    for module in list(sys.modules.values()):
+        source = getattr(module, "__file__", None)
+        if isinstance(source, str):
+            try:
+                if Path(source).resolve() == path:
+                    return module
+            except (OSError, RuntimeError, ValueError):
+                continue
+    return None
+
+
 def _import_file(path: Path):
-    """Import a plug-in file as its own module (named after its path, so two files may share a name)."""
+    """Import a plug-in file as its own module (named after its path, so two files may share a
+    name), unless it is imported already (`import my_laws` before a scenario names my_laws.py):
+    its registrations are there, and a second import would register them twice."""
+    already = _imported_from(path)
+    if already is not None:
+        return already
     name = f"testbed_plugin_{path.stem}_{hashlib.sha1(str(path).encode()).hexdigest()[:8]}"
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)

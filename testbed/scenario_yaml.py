@@ -56,15 +56,25 @@ class _Loader(yaml.SafeLoader):
 
 
 _Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _Loader.construct_mapping)
-_Loader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+_FLOAT = re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
                     |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
                     |\.[0-9_]+(?:[eE][-+][0-9]+)?
                     |[-+]?\.(?:inf|Inf|INF)
-                    |\.(?:nan|NaN|NAN))$""", re.X),
-    list("-+0123456789."),
-)
+                    |\.(?:nan|NaN|NAN))$""", re.X)
+_Loader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+0123456789."))
+
+
+def as_loaded(data):
+    """`data` (a mapping built in Python, or read by another YAML reader) with every string that
+    this loader would have read as a number made that number, as if it had come from a file:
+    PyYAML's `safe_load` reads `1e-4` (no dot) as the string '1e-4'. Other values as they are."""
+    if isinstance(data, dict):
+        return {key: as_loaded(value) for key, value in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [as_loaded(value) for value in data]
+    if isinstance(data, str) and _FLOAT.match(data):
+        return _Loader("").construct_yaml_float(yaml.ScalarNode("tag:yaml.org,2002:float", data))
+    return data
 
 
 def yaml_load(text: str, where: str):

@@ -93,6 +93,27 @@ def test_a_plugin_module_name_and_a_namespaced_name(tmp_path, monkeypatch):
     assert testbed.run(tmp_path / "s.yaml").status == "ok"
 
 
+def test_a_plugin_file_already_imported_is_not_registered_twice(tmp_path, monkeypatch):
+    """`import my_laws`, then a run of a scenario that lists my_laws.py: the same file, so the
+    law is the one already registered (it was refused as 'already registered ... give it a
+    namespaced name'), and it still obeys its physics."""
+    import importlib
+
+    law = unique(tmp_path, "imported")
+    module = f"my_laws_{abs(hash(str(tmp_path))) % 10**8}"
+    (tmp_path / f"{module}.py").write_text(DAMPER.format(name=law, body='return {"torque": -self.k @ estimate["omega"]}'))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    imported = importlib.import_module(module)
+    (tmp_path / "s.yaml").write_text(scenario_text("twice", law, f"[{module}.py]"))
+    result = testbed.run(tmp_path / "s.yaml")
+    assert result.status == "ok", result.error
+    t, torque = result.trace["law/torque"]
+    _, omega = result.trace["estimator/omega"]
+    np.testing.assert_allclose(torque, -0.5 * omega @ INERTIA.T, rtol=1e-12, atol=1e-15)
+    from testbed.pipeline import STAGES
+    assert STAGES["law"][law][1] is imported.RateDamper  # the class of the module imported first
+
+
 @pytest.mark.parametrize("source, line, kind", [
     ("import numpy\n\nvalue = 1 / 0\n", 3, "ZeroDivisionError"),
     ("def broken(:\n    pass\n", 1, "SyntaxError"),
