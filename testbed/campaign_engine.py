@@ -7,17 +7,21 @@ when nothing answers there within SCHEDULER_TIMEOUT_S or no worker joins.
 
 `results(fn, tasks)` runs fn(*args) for every argument tuple and yields (args, outcome) as each
 finishes: fn's return value, or `WorkerDied` when the worker process running it died twice.
-The command places the tasks itself, DEPTH per worker thread (one running, the next waiting on
-that worker so that it starts the moment the first ends, with no round trip to the command),
-and the next as one finishes. A worker runs its tasks oldest first, so when it dies the
-oldest task out on it when the first of its tasks is reported dead is the one that killed it
-(the others may be reported in any order): that case is handed out once more (the
+The command places the tasks itself, DEPTH per worker thread, and the next as one finishes.
+DEPTH is 1: when a worker dies, the task out on it is the one it was running. (With a second
+task waiting on the worker, one that had finished but whose result died with the worker was
+the oldest out and was blamed: 1 run in 3 of tests/test_campaign_cluster.py's worker death.)
+With more threads a worker runs its tasks oldest first, so the oldest task out on it when the
+first of its tasks is reported dead is the one that killed it (the others may be reported in
+any order): that case is handed out once more (the
 local scheduler reports every task of a dead worker at once, allowed-failures 0; another
 scheduler first retries them by its own setting, Dask's default 3 times), then reported as
 an error row; the one that waited behind it goes back in the queue, not counted. Results are
-fetched in the background as tasks finish and released once taken. Ctrl-C (or any exception
-in the caller's loop) cancels the cases out; leaving the `with` block closes the local
-cluster, stopping them. On an external cluster the ones running go on to their end (a worker
+fetched in the background as tasks finish and released once taken. A task placed on a worker
+that died meanwhile can wait on the scheduler for that worker forever ('no-worker'); when no
+task has finished for STALL_S the command asks the scheduler, and hands such tasks out again.
+Ctrl-C (or any exception in the caller's loop) cancels the cases out; leaving the `with`
+block closes the local cluster, stopping them. On an external cluster the ones running go on to their end (a worker
 thread cannot be stopped), their results unused.
 """
 
@@ -39,7 +43,11 @@ from testbed.errors import InputError
 
 SCHEDULER_TIMEOUT_S = 5.0     # connecting to --scheduler, and again for its first worker
 RETRIES = 1  # a case whose worker died runs once more
-DEPTH = 2    # tasks out per worker thread: one running, the next ready to start when it ends
+# No task has finished for this long: ask the scheduler whether any task out is stranded
+# (placed on a worker that died meanwhile, it waits in 'no-worker' for that worker forever).
+STALL_S = 2.0
+POLL_S = 0.05
+DEPTH = 1    # tasks out per worker thread: the one running (module doc)
 # The local scheduler reports a dead worker's task at once (it would otherwise run it again
 # itself, possibly on a worker that is busy): the command retries it, one task per worker.
 LOCAL_CONFIG = {"distributed.scheduler.allowed-failures": 0}
@@ -119,7 +127,7 @@ class Engine:
                 ) -> Iterator[tuple[tuple, Any]]:
         """(args, fn(*args) or WorkerDied) for every argument tuple in `tasks`, in the order they
         finish; name(args) names the task (uniquely) on the scheduler. Each worker thread has
-        DEPTH tasks out, the oldest running; when a worker dies, its oldest task is the one
+        DEPTH tasks out; when a worker dies, its oldest task is the one
         that killed it, handed out RETRIES times more, and the others go back in the queue
         (module doc)."""
         from distributed import KilledWorker, as_completed
@@ -131,6 +139,8 @@ class Engine:
         queues: dict[str, list] = {}        # worker address -> its futures, oldest first
         blame: dict = {}                    # future out on a worker that died -> whether it was the oldest
         finished = as_completed([], with_results=True, raise_errors=False)
+        handed: dict = {}                   # future -> when it was handed out (monotonic s)
+        last_finish = time.monotonic()
 
         def hand_out() -> None:
             for address, worker in self.client.scheduler_info()["workers"].items():
@@ -141,8 +151,28 @@ class Engine:
                     future = self.client.submit(fn, *args, key=key, pure=False, workers=[address],
                                                 allow_other_workers=True)
                     out[future] = (args, address)
+                    handed[future] = time.monotonic()
                     queue.append(future)
                     finished.add(future)
+
+        def hand_back_stranded() -> None:
+            """Tasks out for longer than STALL_S that the scheduler cannot run go back in the
+            queue (not counted as a death): a new key, placed on a worker that is there."""
+            old = [f for f in out if time.monotonic() - handed[f] > STALL_S]
+            if not old:
+                return
+            try:
+                stuck = set(self.client.run_on_scheduler(_stranded, [f.key for f in old]))
+            except Exception:  # noqa: BLE001  (a scheduler that runs no code of ours: wait on)
+                return
+            for future in [f for f in old if f.key in stuck]:
+                args, address = out.pop(future)
+                handed.pop(future, None)
+                blame.pop(future, None)
+                if future in queues.get(address, ()):
+                    queues[address].remove(future)
+                self.client.cancel([future])
+                pending.appendleft(args)
 
         try:
             while pending or out:
@@ -150,7 +180,17 @@ class Engine:
                 if not out:  # every worker died and none is back yet
                     time.sleep(0.1)
                     continue
+                if not finished.has_ready():  # a bounded wait: a task can be stranded (hand_back_stranded)
+                    time.sleep(POLL_S)
+                    if time.monotonic() - last_finish > STALL_S:
+                        hand_back_stranded()
+                        last_finish = time.monotonic()
+                    continue
                 future, outcome = next(finished)
+                if future not in out:  # one handed out again (hand_back_stranded): its cancellation
+                    continue
+                last_finish = time.monotonic()
+                handed.pop(future, None)
                 args, address = out.pop(future)
                 failed = future.status == "error"
                 future.release()
@@ -177,6 +217,13 @@ class Engine:
         finally:
             if out:
                 self.client.cancel(list(out))
+
+
+def _stranded(keys: list, dask_scheduler=None) -> list:
+    """Of `keys`, those the scheduler cannot run (run on the scheduler): unknown to it, or in
+    'no-worker', waiting for a worker that is no longer there."""
+    tasks = dask_scheduler.tasks
+    return [key for key in keys if key not in tasks or tasks[key].state in ("no-worker", "released", "forgotten")]
 
 
 def _connect(address: str):
