@@ -1359,3 +1359,62 @@ def test_stdout_closed_by_the_reader(tmp_path, argv):
     finally:
         os.close(write_end)
     assert "Traceback" not in proc.stderr, proc.stderr
+
+
+@pytest.mark.parametrize("argv, code", [
+    (["run", "torque_free_tumble", "--out", "x.rrd", "--set", SHORT, "--set", "checks.final_omega_rad_s.max=0"], 1),
+    (["run", "torque_free_tumble", "--out", "x.rrd", "--set", SHORT], 0),
+    (["list"], 0)], ids=["failing run", "passing run", "list"])
+def test_a_reader_that_goes_away_keeps_the_exit_status(tmp_path, argv, code):
+    """`testbed run <a failing run> | head -1`: the reader has gone when the summary is printed
+    (closed before the run starts, so that every write meets the broken pipe, not only those
+    of a slow reader); the exit status stays the run's own (it was 0 for a failing run)."""
+    read_end, write_end = os.pipe()
+    os.close(read_end)
+    try:
+        proc = subprocess.run([sys.executable, "-m", "testbed", *argv], cwd=tmp_path, stdout=write_end,
+                              stderr=subprocess.PIPE, text=True, timeout=60)
+    finally:
+        os.close(write_end)
+    assert "Traceback" not in proc.stderr, proc.stderr
+    assert proc.returncode == code, proc.stderr
+
+
+# --- 16. the API takes what a YAML file holds ---------------------------------------------------
+
+def test_a_mapping_from_safe_load_is_read_as_the_loader_reads_the_file(tmp_path):
+    """PyYAML's safe_load reads `1e-9` (no dot) as a string; testbed.run of that mapping reads it
+    as the number, as `testbed run FILE` does: the same result as the file."""
+    text = (SCENARIO_DIR / "torque_free_tumble.yaml").read_text()
+    data = yaml.safe_load(text)
+    data["sim"]["duration_s"] = "2e1"  # written as a file would have it
+    data["checks"] = {"momentum_drift_rel": {"max": "1e-9"}}
+    assert isinstance(data["sim"]["duration_s"], str)
+    result = testbed.run(data)
+    assert result.status == "ok" and result.sim_s == pytest.approx(20.0)
+    assert result.checks[0]["limit"] == "<= 1e-09" and result.checks[0]["passed"]
+    path = write_yaml(tmp_path, "again", {**data, "sim": {**data["sim"], "duration_s": 20.0},
+                                          "checks": {"momentum_drift_rel": {"max": 1e-9}}})
+    assert testbed.run(path).metrics == result.metrics
+    with pytest.raises(testbed.InputError, match="sim.duration_s"):
+        testbed.run({**data, "sim": {**data["sim"], "duration_s": "twenty"}})
+
+
+@pytest.mark.parametrize("out", [123, b"x.rrd", ["x.rrd"], 1.5])
+def test_an_out_that_is_not_a_path_is_refused(tmp_path, monkeypatch, out):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(testbed.InputError, match="^out: must be a file path"):
+        testbed.run(testbed.load("torque_free_tumble", [SHORT]), out=out)
+    assert everything_in(tmp_path) == []
+
+
+def test_a_run_that_diverges_at_its_first_tick_stores_its_own_result(tmp_path):
+    """Found by the fuzz: a leader rate of 1e308 overflows at t = 0, before any chunk is
+    flushed, so the "did not finish" placeholder and the result share one chunk; the stored
+    result is the run's (diverged), not the placeholder (it read back as 'error')."""
+    data = shipped("gyrostat_observer_arctan")
+    data["model"]["leader_omega_rad_s"] = [1e308, 0.2, 0.3]
+    data["sim"]["duration_s"] = 0.05
+    result = testbed.run(data, out=tmp_path / "x.rrd")
+    assert result.status == "diverged"
+    assert testbed.read(tmp_path / "x.rrd").status == "diverged"

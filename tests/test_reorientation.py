@@ -192,6 +192,44 @@ def test_slew_with_boundary_rates_meets_them():
     np.testing.assert_allclose(law.program.state(40.0)[1], np.radians(wT), atol=1e-12)
 
 
+def test_a_run_that_ends_before_its_slew_does_fails_its_attitude_check(tmp_path, capsys):
+    """reorient_minimax cut at 20 s, 15 s into its 40 s slew: the body is far from the target
+    q0 ∘ (axis, 60 deg) (it passed before, measured against the program at 20 s); the error is
+    the angle from the recorded final attitude to that target, and the program is still tracked."""
+    from testbed.cli import main
+
+    result = run_scenario(load_scenario("reorient_minimax", ["sim.duration_s=20"]), None, keep_data=True)
+    target = quat_from_axis_angle(AXIS, np.radians(60.0))
+    final = result.data.recorder["truth/quat"][-1]
+    angle = np.degrees(quat_angle(quat_mul(quat_conj(target), final)))
+    assert angle > 30.0
+    assert result.metrics["final_attitude_error_deg"] == pytest.approx(angle, rel=1e-9)
+    assert result.metrics["final_tracking_error_deg"] < 0.05
+    assert not result.passed and [c["name"] for c in result.checks if not c["passed"]] == ["final_attitude_error_deg"]
+    assert main(["run", "reorient_minimax", "--set", "sim.duration_s=20", "--out", str(tmp_path / "x.rrd")]) == 1
+
+
+def test_the_slew_target_past_the_end_spins_on_at_the_final_rate():
+    """The target the metric measures against, from the scenario's numbers, equals the program
+    (a second construction, SEEDS §004 eq. 5-13) at rest before the slew ends and, past its end,
+    q0 ∘ (axis, angle) turned at the final body rate: q(t) = qT ∘ (w/|w|, |w| (t - start - T))."""
+    from testbed.stages.slew import slew_target
+
+    wT = [0.0, 0.3, 0.2]
+    law, _ = _slew(final_rate_deg_s=wT)
+    params = SlewParams(axis=list(AXIS), angle_deg=60.0, duration_s=40.0, start_s=5.0, final_rate_deg_s=wT)
+    q0 = law.program.attitude(0.0)
+    qT = quat_from_axis_angle(AXIS, np.radians(60.0))
+    assert quat_angle(quat_mul(quat_conj(slew_target(params, [1, 0, 0, 0], 30.0)), qT)) == 0.0
+    for after in (0.0, 7.0, 60.0):
+        rate = np.radians(wT)
+        expected = quat_mul(qT, quat_from_axis_angle(rate / np.linalg.norm(rate), np.linalg.norm(rate) * after))
+        got = slew_target(params, [1, 0, 0, 0], 45.0 + after)
+        assert quat_angle(quat_mul(quat_conj(expected), got)) < 1e-12
+        assert quat_angle(quat_mul(quat_conj(law.program.attitude(40.0 + after)), got)) < 1e-9
+    assert quat_angle(quat_mul(quat_conj(q0), [1.0, 0, 0, 0])) < 1e-12
+
+
 @pytest.mark.slow
 def test_steering_extremes_count_every_control_step_whatever_the_trace_period(runs):
     """A trace 20x coarser than the control period changes nothing in the dynamics, so the

@@ -10,7 +10,8 @@ after the slew it holds qT (or spins on at the final rate).
 
 Records `law/torque`, the program `program_quat`, `program_omega`, `program_torque`, and the
 attitude error as a rotation vector `attitude_error` [rad, body axes] and its angle `error_angle`;
-declares the program attitude at the run's last sample (`final_program_quat`).
+declares the slew's target at the run's end (`target_quat`: q0 ∘ (axis, angle), from the
+scenario's numbers) and the program attitude at the run's last sample (`final_program_quat`).
 """
 
 from __future__ import annotations
@@ -65,6 +66,20 @@ def build_program(params: SlewParams, q0) -> ProgramTrajectory:
         raise InputError(join(LAW_PATH, _FIELDS.get(exc.field, exc.field)), exc.reason) from None
 
 
+def slew_target(params: SlewParams, q0, t) -> np.ndarray:
+    """The attitude the slew is to bring the body to by time t, from the scenario's own numbers
+    (not the program): qT = q0 ∘ (axis, angle), turned on past start_s + duration_s at the final
+    body rate (SEEDS §004 eq. 12: the program ends at qT with rate ω_T, then spins on at it)."""
+    q0 = np.asarray(q0, float) / np.linalg.norm(q0)
+    target = quat_mul(q0, quat_from_axis_angle(np.asarray(params.axis, float), np.radians(params.angle_deg)))
+    rate = np.radians(np.asarray(params.final_rate_deg_s, float))
+    speed = float(np.linalg.norm(rate))
+    after = max(0.0, t - params.start_s - params.duration_s)
+    if speed == 0.0 or after == 0.0:
+        return target
+    return quat_mul(target, quat_from_axis_angle(rate / speed, speed * after))
+
+
 @stage("law", "slew", SlewParams)
 class Slew:
     def __init__(self, params: SlewParams, ctx):
@@ -81,8 +96,9 @@ class Slew:
         except InputError as exc:
             raise InputError(join(LAW_PATH, _FIELDS.get(exc.field, exc.field)), exc.reason) from None
         self.inertia = self.tracking.inertia
-        # the target the run should end on: the program attitude at the last sample
-        self.statistics = {"final_program_quat": self.program.attitude(ctx.end_time - self.start)}
+        # where the run should end: the slew's target, and the program at the last sample
+        self.statistics = {"target_quat": slew_target(params, ctx.initial.quat, ctx.end_time),
+                           "final_program_quat": self.program.attitude(ctx.end_time - self.start)}
 
     def applied(self) -> dict:
         """Axis, angle and duration of the program this law tracks, read from the program itself

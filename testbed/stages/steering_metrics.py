@@ -36,12 +36,23 @@ TRACKING_ERROR_PEAK = NanMax("law/error_angle")
 GIMBAL_RATE_PEAK = MaxAbs("truth/gimbal_rate")
 
 
+def _angle_to(target, run) -> float:
+    """Angle between the final bus attitude and `target` [deg]."""
+    return float(np.degrees(quat_angle(quat_mul(quat_conj(target), run.reduced(QUAT_LAST)))))
+
+
 @metric("final_attitude_error_deg", applies=_slewed, uses=(QUAT_LAST,))
 def final_attitude_error_deg(run) -> float:
-    """Angle between the final bus attitude and the program attitude at that time (the target) [deg]."""
-    target = run.statistics["law"]["final_program_quat"]
-    error = quat_mul(quat_conj(target), run.reduced(QUAT_LAST))
-    return float(np.degrees(quat_angle(error)))
+    """Angle between the final bus attitude and the slew's target q0 ∘ (axis, angle), turned on
+    at the final rate past the slew's end [deg]: a run that ends before its slew does is
+    measured against where the slew is to end, not against the program halfway."""
+    return _angle_to(run.statistics["law"]["target_quat"], run)
+
+
+@metric("final_tracking_error_deg", applies=_slewed, uses=(QUAT_LAST,))
+def final_tracking_error_deg(run) -> float:
+    """Angle between the final bus attitude and the program attitude Λ*(t) at that time [deg]."""
+    return _angle_to(run.statistics["law"]["final_program_quat"], run)
 
 
 @metric("max_tracking_error_deg", applies=_slewed, uses=(TRACKING_ERROR_PEAK,))
