@@ -123,7 +123,16 @@ def test_gsr_dither_escapes_where_sr_is_stuck():
     gsr = gsr_steering(J, 10.0, 3.0 * u3, 1.0, t=0.5)
     assert np.abs(sr.beta_rate).max() < 1e-12
     assert np.abs(gsr.beta_rate).max() > 1e-3
-    assert np.dot(gsr.hdot_delivered, u3) > 0  # GSR pushes momentum the wanted way
+    # Its rates leave the singular set: the delivered H' = J b' is orthogonal to u3 to round-off
+    # (its sign along u3 was the machine's), but a 1 s step along b' takes the singularity
+    # measure sqrt(det(J J^T)) from round-off to the order of the step (well conditioned).
+    def measure(beta):
+        jac = rhombus_jacobian(beta, ALPHA)
+        return math.sqrt(max(np.linalg.det(jac @ jac.T), 0.0))
+
+    beta = np.array([0.4, -1.1, 0.4, -1.1])
+    assert measure(beta) < 1e-6  # sqrt of a round-off determinant: 1.5e-8 here
+    assert measure(beta + gsr.beta_rate * 1.0) > 1e-3  # 3.6e-3 here, 2.5 |b'|max
 
 
 # --- min-max: exact closed form vs linear programs -----------------------------------------

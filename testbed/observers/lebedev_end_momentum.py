@@ -29,6 +29,7 @@ from testbed.observers.lebedev_momentum import end_held_momentum, end_polar_band
 # phases phi of the end circle, 2 deg apart: its largest demand is sampled to within
 # 1 - cos(1 deg) = 1.5e-4, from below (a refusal stays certain)
 CIRCLE_POINTS = 180
+TIE_REL = 1e-9  # shares closer than this to the largest are a tie (a well-conditioned share moves ~1e-12)
 
 
 def end_momentum_circle(moments, spin_rate, size: float, polar_deg: float, points: int = CIRCLE_POINTS):
@@ -56,7 +57,10 @@ def end_momentum_demand(gauge, moments, spin_rate, size: float, polars_deg, rate
         with np.errstate(under="ignore"):   # a rate limit of 1e308 rad/s: the shares are 0, not an error
             values = values.reshape(vectors.shape[:2]) / limit
         directions = directions.reshape(vectors.shape)
-        for i, k in enumerate(np.argmax(values, axis=1)):
+        # the first phase within round-off of the largest share: the end circle is symmetric, and
+        # which of two mirror phases comes out larger is the machine's round-off, not the physics
+        near_max = values >= np.max(values, axis=1, keepdims=True) * (1.0 - TIE_REL)
+        for i, k in enumerate(np.argmax(near_max, axis=1)):
             if worst[i] is None or values[i, k] > worst[i][0]:
                 worst[i] = (float(values[i, k]), vectors[i, k], directions[i, k], kind)
     return worst
