@@ -21,8 +21,8 @@ fetched in the background as tasks finish and released once taken. A task placed
 that died meanwhile can wait on the scheduler for that worker forever ('no-worker'); when no
 task has finished for STALL_S the command asks the scheduler, and hands such tasks out again.
 Ctrl-C (or any exception in the caller's loop) cancels the cases out; leaving the `with`
-block closes the local cluster, stopping them. On an external cluster the ones running go on to their end (a worker
-thread cannot be stopped), their results unused.
+block closes the local cluster, stopping them. On an external cluster the ones running go on
+to their end (a worker thread cannot be stopped), their results unused.
 """
 
 from __future__ import annotations
@@ -181,7 +181,7 @@ class Engine:
                     time.sleep(0.1)
                     continue
                 if not finished.has_ready():  # a bounded wait: a task can be stranded (hand_back_stranded)
-                    time.sleep(POLL_S)
+                    _wait_a_little(finished)
                     if time.monotonic() - last_finish > STALL_S:
                         hand_back_stranded()
                         last_finish = time.monotonic()
@@ -217,6 +217,18 @@ class Engine:
         finally:
             if out:
                 self.client.cancel(list(out))
+
+
+def _wait_a_little(finished) -> None:
+    """Until a task of `finished` (distributed.as_completed) finishes, or POLL_S: woken by its
+    own condition as as_completed's blocking `next` is, so a finished case is taken at once."""
+    condition = getattr(finished, "thread_condition", None)
+    if condition is None:
+        time.sleep(POLL_S)
+        return
+    with condition:
+        if not finished.has_ready():
+            condition.wait(timeout=POLL_S)
 
 
 def _stranded(keys: list, dask_scheduler=None) -> list:

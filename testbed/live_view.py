@@ -90,7 +90,8 @@ def start_viewer(port: int = VIEWER_PORT) -> str:
         return url  # a viewer already runs there (as Rerun's own spawn() reuses it)
     if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         raise InputError("--view", "no display to open the Rerun viewer on (DISPLAY and WAYLAND_DISPLAY are "
-                                   "unset); stream to a viewer elsewhere with --connect URL, or open the .rrd after the run")
+                                   "unset); stream to a viewer elsewhere with --connect URL, "
+                                   "or open the .rrd after the run")
     executable = viewer_executable()
     if executable is None:
         raise InputError("--view", "no Rerun viewer executable ('rerun' beside the interpreter or on PATH)")

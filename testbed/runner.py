@@ -124,8 +124,9 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     signals the metrics need are kept: memory does not grow with the run for metrics that are
     running reductions); `live`: a viewer (testbed.live_view.ViewerStream) the trace is also
     streamed to as it goes, never waited for; the file and the viewer get a chunk at least
-    every FLUSH_AFTER_S of wall time; `progress(fraction)` is called about 200 times; `on_prepared(plant, pipeline)` sees the
-    built plant and stages before the first step (a campaign reads back what the case runs with)."""
+    every FLUSH_AFTER_S of wall time; `progress(fraction)` is called about 200 times;
+    `on_prepared(plant, pipeline)` sees the built plant and stages before the first step (a
+    campaign reads back what the case runs with)."""
     with one_blas_thread():
         return _run(scenario, out, progress, keep_data, live, on_prepared)
 
