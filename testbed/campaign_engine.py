@@ -135,11 +135,10 @@ class Engine:
         batch = uuid.uuid4().hex[:8]  # keys stay unique on a scheduler shared by several campaigns
         pending = collections.deque(tasks)  # a case handed out again goes first
         deaths: dict[str, int] = {}         # name -> how often a worker died running it
-        out: dict = {}                      # future -> (args, worker address)
+        out: dict = {}                      # future -> (args, worker address, when handed out [monotonic s])
         queues: dict[str, list] = {}        # worker address -> its futures, oldest first
         blame: dict = {}                    # future out on a worker that died -> whether it was the oldest
         finished = as_completed([], with_results=True, raise_errors=False)
-        handed: dict = {}                   # future -> when it was handed out (monotonic s)
         last_finish = time.monotonic()
 
         def hand_out() -> None:
@@ -150,15 +149,14 @@ class Engine:
                     key = f"{name(args)}-{batch}-{uuid.uuid4().hex[:8]}"  # a case handed out again gets a new key
                     future = self.client.submit(fn, *args, key=key, pure=False, workers=[address],
                                                 allow_other_workers=True)
-                    out[future] = (args, address)
-                    handed[future] = time.monotonic()
+                    out[future] = (args, address, time.monotonic())
                     queue.append(future)
                     finished.add(future)
 
         def hand_back_stranded() -> None:
             """Tasks out for longer than STALL_S that the scheduler cannot run go back in the
             queue (not counted as a death): a new key, placed on a worker that is there."""
-            old = [f for f in out if time.monotonic() - handed[f] > STALL_S]
+            old = [f for f, (_, _, handed) in out.items() if time.monotonic() - handed > STALL_S]
             if not old:
                 return
             try:
@@ -166,8 +164,7 @@ class Engine:
             except Exception:  # noqa: BLE001  (a scheduler that runs no code of ours: wait on)
                 return
             for future in [f for f in old if f.key in stuck]:
-                args, address = out.pop(future)
-                handed.pop(future, None)
+                args, address, _ = out.pop(future)
                 blame.pop(future, None)
                 if future in queues.get(address, ()):
                     queues[address].remove(future)
@@ -190,8 +187,7 @@ class Engine:
                 if future not in out:  # one handed out again (hand_back_stranded): its cancellation
                     continue
                 last_finish = time.monotonic()
-                handed.pop(future, None)
-                args, address = out.pop(future)
+                args, address, _ = out.pop(future)
                 failed = future.status == "error"
                 future.release()
                 if isinstance(outcome, BaseException):  # cancelled: the cluster went away
