@@ -10,19 +10,24 @@
 - When the table closes, both files hold the rows sorted by case.
 - DIR/campaign.json names the campaign and the fingerprint of its cases (base scenario, every
   case's seed and values): `--resume` continues only the same campaign, skipping the cases
-  whose rows the CSV holds; a row cut short by a crash is dropped and its case runs again.
+  whose rows the CSV holds; a last line cut short by a crash is dropped and its case runs
+  again; any other damage (not UTF-8, an unknown case or one given twice with other cells,
+  a field over 128 kB, a campaign.json that is not an object) is refused before anything is
+  written.
 """
 
 from __future__ import annotations
 
+import codecs
 import csv
 import hashlib
+import io
 import json
 import time
 from pathlib import Path
 
 from testbed.atomic_file import atomic_file, write_atomically
-from testbed.errors import InputError
+from testbed.errors import InputError, quoted
 
 PARQUET_EVERY_S = 5.0
 
@@ -75,43 +80,82 @@ class CampaignTable:
     def open(self, resume: bool) -> dict[int, dict]:
         """Start the table (a fresh one, or with `resume` the one this campaign left in the
         folder); returns the rows already finished, by case."""
-        self.folder.mkdir(parents=True, exist_ok=True)
+        done = self.read(resume)
+        self.start()
+        return done
+
+    def read(self, resume: bool) -> dict[int, dict]:
+        """With `resume`, the rows this campaign left in the folder, by case ({} without);
+        writes nothing. A last line without its newline (a write cut by a crash) is dropped, so
+        its case runs again; any other damage is refused (InputError, README "Results that
+        survive")."""
         if resume and self.identity_path.exists():
             self._check_same_campaign()
             self.rows = self._read_csv() if self.csv_path.exists() else {}
         elif resume and self.csv_path.exists():
             raise InputError("--resume", f"{self.csv_path} has no campaign.json beside it: it cannot be "
                                          "told apart from another campaign's table")
+        return dict(self.rows)
+
+    def start(self) -> None:
+        """Write campaign.json, the CSV of the rows read (without a cut-off last line) and the
+        Parquet file, and open the CSV for the rows to come."""
+        self.folder.mkdir(parents=True, exist_ok=True)
         write_atomically(self.identity_path, json.dumps(self.identity | {"columns": self.columns}, indent=1))
-        self._rewrite_csv()  # the finished rows only (a cut-off last line is dropped)
+        self._rewrite_csv()
         self._handle = open(self.csv_path, "a", newline="")
         self._writer = csv.DictWriter(self._handle, fieldnames=list(self.columns), restval="", extrasaction="ignore")
         self._write_parquet()
-        return dict(self.rows)
 
     def _check_same_campaign(self) -> None:
         try:
-            stored = json.loads(self.identity_path.read_text())
-        except (OSError, ValueError) as exc:
-            raise InputError("--resume", f"{self.identity_path} cannot be read: {exc}") from None
+            stored = json.loads(self.identity_path.read_text(encoding="utf-8"))
+        except OSError as exc:
+            raise _damaged(self.identity_path, f"cannot be read: {exc.strerror}") from None
+        except (ValueError, RecursionError) as exc:  # not UTF-8, not JSON, nested too deep
+            raise _damaged(self.identity_path, f"cannot be read: {exc}") from None
+        if not isinstance(stored, dict):
+            raise _damaged(self.identity_path, f"is not a JSON object: {quoted(stored)}")
         if stored.get("fingerprint") != self.identity["fingerprint"] or stored.get("columns") != self.columns:
             raise InputError("--resume", f"{self.folder} holds the table of another campaign (its scenario, "
                                          "seed or cases differ): give another --out, or leave out --resume")
 
     def _read_csv(self) -> dict[int, dict]:
+        path, count = self.csv_path, self.identity["cases"]
+        try:
+            data = path.read_bytes()
+        except OSError as exc:
+            raise _damaged(path, f"cannot be read: {exc.strerror}") from None
+        cut = not data.endswith(b"\n")  # every line is written whole with its newline, unless a crash cut it
+        try:  # a cut line may end in half a character
+            text = codecs.getincrementaldecoder("utf-8")().decode(data, final=not cut)
+        except UnicodeDecodeError as exc:
+            raise _damaged(path, f"is not UTF-8 text (byte {exc.start})") from None
+        reader = csv.reader(io.StringIO(text, newline=""))
+        try:
+            lines = [(reader.line_num, cells) for cells in reader]
+        except csv.Error as exc:  # a field over csv.field_size_limit() (128 kB)
+            raise _damaged(path, f"line {reader.line_num}: {exc}") from None
+        if cut:
+            lines = lines[:-1]
+        if not lines or lines[0][1] != list(self.columns):
+            raise _damaged(path, "does not have this campaign's columns")
         rows: dict[int, dict] = {}
-        with open(self.csv_path, newline="") as handle:
-            reader = csv.reader(handle)
-            if next(reader, None) != list(self.columns):
-                raise InputError("--resume", f"{self.csv_path} does not have this campaign's columns")
-            for cells in reader:
-                row = self._parse(cells)
-                if row is not None and row["case"] not in rows:
-                    rows[row["case"]] = row
+        cells_of: dict[int, list[str]] = {}
+        for number, cells in lines[1:]:
+            row = self._parse(cells)
+            if row is None:
+                raise _damaged(path, f"line {number} is not a row of this campaign's columns")
+            case = row["case"]
+            if not 0 <= case < count:
+                raise _damaged(path, f"line {number}: the campaign has no case {case} (0 ... {count - 1})")
+            if cells_of.setdefault(case, cells) != cells:
+                raise _damaged(path, f"line {number}: case {case} is there twice, with different cells")
+            rows[case] = row
         return rows
 
     def _parse(self, cells: list[str]) -> dict | None:
-        """A CSV line as a typed row; None for a line cut short or damaged."""
+        """A CSV line as a typed row; None for a line of other cells or kinds."""
         if len(cells) != len(self.columns):
             return None
         try:
@@ -166,6 +210,12 @@ def read_parquet(path: Path) -> list[dict]:
     import pyarrow.parquet as pq
 
     return pq.read_table(path).to_pylist()
+
+
+def _damaged(path: Path, why: str) -> InputError:
+    """The refusal of a damaged file in the folder to resume: `--resume: <file>: <why>` (the
+    path quoted, so that a long one keeps its file name)."""
+    return InputError("--resume", f"{quoted(str(path))}: {why}")
 
 
 def _typed(cell: str, kind: str):

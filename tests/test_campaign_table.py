@@ -120,13 +120,13 @@ def test_a_row_cut_short_by_a_crash_is_dropped_and_its_case_runs_again(tmp_path)
     for row in rows:
         merge_kinds(columns, row)
     assert columns == {"case": "int", "passed": "bool", "x": "float", "label": "str"}
-    table = CampaignTable(out, "t", columns, {"fingerprint": "f"})
+    table = CampaignTable(out, "t", columns, {"fingerprint": "f", "cases": 3})
     table.open(resume=False)
     for row in rows:
         table.append(row)
     with open(out / "t.csv", "a") as handle:  # what a kill -9 in the middle of a write leaves
         handle.write("1,Tr")
-    again = CampaignTable(out, "t", columns, {"fingerprint": "f"})
+    again = CampaignTable(out, "t", columns, {"fingerprint": "f", "cases": 3})
     assert again.open(resume=True) == {0: rows[0], 2: rows[1]}
     assert again.close() == rows
     assert read_parquet(out / "t.parquet") == rows
