@@ -88,7 +88,11 @@ class CampaignTable:
         """With `resume`, the rows this campaign left in the folder, by case ({} without);
         writes nothing. A last line without its newline (a write cut by a crash) is dropped, so
         its case runs again; any other damage is refused (InputError, README "Results that
-        survive")."""
+        survive"), as is a path of the wrong kind for one of the table's files."""
+        from testbed.trace import output_path
+
+        for path in (self.csv_path, self.parquet_path, self.identity_path):
+            output_path(path)  # a directory there would fail only when it is written
         if resume and self.identity_path.exists():
             self._check_same_campaign()
             self.rows = self._read_csv() if self.csv_path.exists() else {}

@@ -111,8 +111,9 @@ def run(args) -> int:
 
     name, data, cases = load_cases(args.scenario, args.set)
     out = output_folder(args, name)
+    table, done = open_table(out, name, data, cases, args)  # refuses a damaged folder; writes nothing
     with Engine(workers, args.scheduler) as engine:  # an unreachable scheduler is refused before any file is written
-        table, done = open_table(out, name, data, cases, args)
+        table.start()
         rows = _run_into(table, done, cases, engine, out if args.rrd else None, args)
     lines = summarise(name, data, rows, cases, out, args)
 
@@ -145,18 +146,29 @@ def summarise(name: str, data: dict, rows: list[dict], cases, out: Path, args) -
     limits = {case.index: case.prepared["checks"] for case in cases}
     result = summary(name, rows, metric_names, limits, rerun_command(args.scenario, args.set, str(out)), groups)
     result["parameters"] = parameters
-    (out / "summary").mkdir(exist_ok=True)  # apart from the cases' caseNNNN.rrd
-    write_atomically(out / "summary" / "summary.json", json.dumps(result, indent=1))
-    write_summary_rrd(out / "summary" / "summary.rrd", rows, metric_names, parameters, result)
+    summary_json, summary_rrd = summary_files(out)
+    summary_json.parent.mkdir(exist_ok=True)  # apart from the cases' caseNNNN.rrd
+    write_atomically(summary_json, json.dumps(result, indent=1))
+    write_summary_rrd(summary_rrd, rows, metric_names, parameters, result)
     return report(result)
 
 
+def summary_files(out: Path) -> tuple[Path, Path]:
+    """Where a finished campaign's statistics go: DIR/summary/summary.json and summary.rrd."""
+    return out / "summary" / "summary.json", out / "summary" / "summary.rrd"
+
+
 def open_table(out: Path, name: str, data: dict, cases, args):
-    """(the campaign's table in `out`, the rows it holds by case): its columns those the cases'
-    rows will have; a fresh table, or with --resume the one this campaign left there."""
+    """(the campaign's table in `out`, not started yet, the rows it holds by case): its columns
+    those the cases' rows will have; a fresh table, or with --resume the one this campaign left
+    there. Writes nothing; a folder the campaign could not finish in is refused (an output
+    path of the wrong kind, a damaged table: testbed.campaign_table)."""
     from testbed.campaign_table import CampaignTable, fingerprint, merge_kinds
     from testbed.sweep_runner import expected_row
-    from testbed.trace import file_stem
+    from testbed.trace import file_stem, output_path
+
+    for path in summary_files(out):
+        output_path(path)  # written only when every case has run
 
     columns: dict = {}
     for case in cases:
@@ -164,7 +176,7 @@ def open_table(out: Path, name: str, data: dict, cases, args):
                                           case.prepared["checks"]))
     identity = {"scenario": name, "set": list(args.set), "cases": len(cases), "fingerprint": fingerprint(data, cases)}
     table = CampaignTable(out, file_stem(name), columns, identity)
-    return table, table.open(args.resume)
+    return table, table.read(args.resume)
 
 
 def _run_into(table, done: dict, cases, engine, rrd_dir: Path | None, args) -> list[dict]:

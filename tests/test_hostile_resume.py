@@ -1,7 +1,8 @@
 """`testbed sweep --resume` on a damaged output folder (issue 23). Damage a crash can cause, a
 last line cut mid-write, is repaired: the line is dropped and its case runs again. Any other
-damage is refused before anything runs: exit 2, one stderr line naming the file, the folder left
-byte for byte as it was."""
+damage, and an output path of the wrong kind (with or without --resume), is refused before
+anything runs: exit 2, one stderr line naming the file, the folder left byte for byte as it
+was."""
 
 from __future__ import annotations
 
@@ -68,6 +69,20 @@ DAMAGED = {
 }
 
 
+def a_directory(path: Path) -> None:
+    shutil.rmtree(path) if path.is_dir() else path.unlink()
+    path.mkdir()
+
+
+WRONG_KIND = {
+    "parquet_a_directory": ("mini_sweep.parquet", lambda out: a_directory(out / "mini_sweep.parquet")),
+    "campaign_json_a_directory": ("campaign.json", lambda out: a_directory(out / "campaign.json")),
+    "summary_json_a_directory": ("summary.json", lambda out: a_directory(out / "summary" / "summary.json")),
+    "summary_rrd_a_directory": ("summary.rrd", lambda out: a_directory(out / "summary" / "summary.rrd")),
+    "summary_a_file": ("summary", lambda out: (shutil.rmtree(out / "summary"), (out / "summary").write_text("x"))),
+}
+
+
 def refused_untouched(cli, finished, tmp_path, damage, field: str, name: str, *flags: str) -> None:
     out = copy_of(finished, tmp_path)
     damage(out)
@@ -81,6 +96,13 @@ def refused_untouched(cli, finished, tmp_path, damage, field: str, name: str, *f
 def test_a_damaged_table_or_campaign_json_is_refused_and_left_as_it_is(cli, finished, tmp_path, kind):
     name, damage = DAMAGED[kind]
     refused_untouched(cli, finished, tmp_path, damage, "--resume", name, "--resume")
+
+
+@pytest.mark.parametrize("flags", [["--resume"], []], ids=["resume", "fresh"])
+@pytest.mark.parametrize("kind", WRONG_KIND)
+def test_an_output_path_of_the_wrong_kind_is_refused_before_any_case_runs(cli, finished, tmp_path, kind, flags):
+    name, damage = WRONG_KIND[kind]
+    refused_untouched(cli, finished, tmp_path, damage, "--out", name, *flags)
 
 
 def test_a_last_row_cut_inside_its_last_cell_runs_again_and_the_table_equals_an_uninterrupted_runs(
