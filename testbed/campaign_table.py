@@ -125,23 +125,10 @@ class CampaignTable:
                                          "seed or cases differ): give another --out, or leave out --resume")
 
     def _read_csv(self) -> dict[int, dict]:
+        """The rows the CSV holds, by case; InputError for a line that is not one of this
+        campaign's rows, or a case given twice with other cells."""
         path, count = self.csv_path, self.identity["cases"]
-        try:
-            data = path.read_bytes()
-        except OSError as exc:
-            raise _damaged(path, f"cannot be read: {exc.strerror}") from None
-        cut = not data.endswith(b"\n")  # every line is written whole with its newline, unless a crash cut it
-        try:  # a cut line may end in half a character
-            text = codecs.getincrementaldecoder("utf-8")().decode(data, final=not cut)
-        except UnicodeDecodeError as exc:
-            raise _damaged(path, f"is not UTF-8 text (byte {exc.start})") from None
-        reader = csv.reader(io.StringIO(text, newline=""))
-        try:
-            lines = [(reader.line_num, cells) for cells in reader]
-        except csv.Error as exc:  # a field over csv.field_size_limit() (128 kB)
-            raise _damaged(path, f"line {reader.line_num}: {exc}") from None
-        if cut:
-            lines = lines[:-1]
+        lines = _whole_lines(path)
         if not lines or lines[0][1] != list(self.columns):
             raise _damaged(path, "does not have this campaign's columns")
         rows: dict[int, dict] = {}
@@ -214,6 +201,27 @@ def read_parquet(path: Path) -> list[dict]:
     import pyarrow.parquet as pq
 
     return pq.read_table(path).to_pylist()
+
+
+def _whole_lines(path: Path) -> list[tuple[int, list[str]]]:
+    """(line number, cells) of every CSV record of `path` but a last one a crash cut short (no
+    newline at its end: every record is written whole with one); InputError for a file that
+    is not UTF-8 or a field over csv.field_size_limit() (128 kB)."""
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise _damaged(path, f"cannot be read: {exc.strerror}") from None
+    cut = not data.endswith(b"\n")
+    try:  # a cut line may end in half a character
+        text = codecs.getincrementaldecoder("utf-8")().decode(data, final=not cut)
+    except UnicodeDecodeError as exc:
+        raise _damaged(path, f"is not UTF-8 text (byte {exc.start})") from None
+    reader = csv.reader(io.StringIO(text, newline=""))
+    try:
+        lines = [(reader.line_num, cells) for cells in reader]
+    except csv.Error as exc:
+        raise _damaged(path, f"line {reader.line_num}: {exc}") from None
+    return lines[:-1] if cut else lines
 
 
 def _damaged(path: Path, why: str) -> InputError:

@@ -63,6 +63,8 @@ DAMAGED = {
     "case_minus_1": (TABLE, lambda out: edit_table(out, lambda lines: [*lines[:2], b"-1" + lines[2][1:]])),
     "case_twice_other_cells": (TABLE, lambda out: edit_table(out, lambda lines: [
         *lines, lines[2].replace(b",pass\r\n", b",FAIL\r\n")])),
+    "row_of_other_cells": (TABLE, lambda out: edit_table(out, lambda lines: [  # a whole line: no crash made it
+        lines[0], lines[1].replace(b",ok,", b",ok,extra,"), *lines[2:]])),
     "campaign_json_list": ("campaign.json", lambda out: (out / "campaign.json").write_text("[1, 2]")),
     "campaign_json_number": ("campaign.json", lambda out: (out / "campaign.json").write_text("3")),
     "campaign_json_string": ("campaign.json", lambda out: (out / "campaign.json").write_text('"x"')),
