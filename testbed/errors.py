@@ -31,6 +31,16 @@ def one_line(text) -> str:
     return " ".join(w if len(w) <= WORD_LIMIT else w[: WORD_LIMIT - 3] + "..." for w in text.split(" "))
 
 
+ERROR_LIMIT = 300  # characters of a run's or a campaign row's error
+
+
+def error_line(text) -> str:
+    """`text` as one printable line (`one_line`) of at most ERROR_LIMIT characters: a run's or
+    a campaign row's error, whatever a stage's message held."""
+    line = one_line(str(text)[: 100 * ERROR_LIMIT])  # enough for the line: megabytes cost no time
+    return line if len(line) <= ERROR_LIMIT else line[: ERROR_LIMIT - 3] + "..."
+
+
 def described(exc: BaseException) -> str:
     """What a user's code raised, for an error message: `Type: message`; `it exited the process
     (sys.exit(0))` for sys.exit or os._exit (testbed.exit_guard); the type alone, said so, when

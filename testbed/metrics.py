@@ -13,7 +13,7 @@ from typing import Callable
 import numpy as np
 
 from testbed import pipeline, systems_registry
-from testbed.errors import InputError, described
+from testbed.errors import InputError, described, error_line
 from testbed.interrupts import from_a_signal
 from testbed.reductions import First, Last, MaxDistanceFromFirst, MaxNorm
 from testbed.registry import Registry
@@ -94,7 +94,7 @@ def compute_all(run) -> tuple[dict[str, float], dict[str, str]]:
         except BaseException as exc:  # a metric of a partial or odd trace; a plug-in's sys.exit too
             if from_a_signal(exc):
                 raise
-            values[name], why[name] = float("nan"), described(exc)
+            values[name], why[name] = float("nan"), error_line(described(exc))
         if not np.isfinite(values[name]) and name not in why:
             why[name] = "the recorded signals give no finite value"
     return values, why

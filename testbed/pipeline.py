@@ -210,7 +210,7 @@ INTERFACE_SHAPES = {"law": {"torque": (3,)}}
 
 class OutputCheck:
     """Checks one stage's output at every tick: a dict with its declared `outputs` keys, each a
-    finite numeric array whose shape is the interface's, or else the one it had at the first tick.
+    finite real array whose shape is the interface's, or else the one it had at the first tick.
     Applied to stages from outside the package (plug-ins); the built-ins are tested instead."""
 
     def __init__(self, slot: str, name: str, required=(), shapes: dict | None = None):
@@ -225,8 +225,15 @@ class OutputCheck:
                 raise StageFailed(t, self.slot, self.name, f"missing key {key!r} (it declares {list(self.required)})")
         for key, value in out.items():
             try:
-                array = np.asarray(value, dtype=float)
-            except (TypeError, ValueError):
+                array = np.asarray(value)
+                kind = array.dtype.kind
+                if kind != "f":
+                    if kind == "c":  # float() of it would drop the imaginary part
+                        raise StageFailed(t, self.slot, self.name, f"returned a complex {key!r}: {quoted(value)}")
+                    if kind not in "biuO":  # text, dates: not numbers, though float() may read them
+                        raise TypeError
+                    array = array.astype(float)
+            except (TypeError, ValueError, OverflowError):
                 raise StageFailed(t, self.slot, self.name, f"key {key!r} is not numeric: {quoted(value)}") from None
             expected = self.shapes.setdefault(key, array.shape)
             if array.shape != expected:

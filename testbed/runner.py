@@ -15,7 +15,7 @@ import numpy as np
 
 from testbed import metrics, references_registry, systems_registry, trace
 from testbed.blas_threads import one_blas_thread
-from testbed.errors import InputError, refused_as
+from testbed.errors import InputError, error_line, refused_as
 from testbed.exit_guard import os_exit_raises
 from testbed.pipeline import Pipeline, StageContext, StageFailed, params_dict, stage_infos
 from testbed.plant import SimulationDiverged
@@ -184,7 +184,7 @@ def _run(scenario, out, progress, keep_data, live, on_prepared) -> RunResult:
                        plant.description(), momentum_scale, stream.reference_error, reductions=reductions)
         values, why = metrics.compute_all(data) if recorder.count > 1 else ({}, {})
         checks = metrics.evaluate_checks(scenario, values, why)
-        result = RunResult(scenario.name, recorder.last_time, 0.0, status, error,
+        result = RunResult(scenario.name, recorder.last_time, 0.0, status, error and error_line(error),
                            values, checks, str(out) if out else None, data if keep_data else None,
                            Trace.from_recorder(recorder) if keep_data else None)
         if writer is not None:

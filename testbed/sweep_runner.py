@@ -17,7 +17,7 @@ import traceback
 from pathlib import Path
 from typing import Callable
 
-from testbed.errors import described
+from testbed.errors import described, error_line
 from testbed.interrupts import from_a_signal
 from testbed.schema import is_number
 from testbed.sweep import Case
@@ -73,7 +73,7 @@ def run_case(case: Case, rrd: str | None = None) -> dict:
             raise
         last = traceback.extract_tb(exc.__traceback__)[-1]
         return case_row(case, applied, "error", False,
-                        f"{described(exc)} ({Path(last.filename).name}:{last.lineno})",
+                        error_line(f"{described(exc)} ({Path(last.filename).name}:{last.lineno})"),
                         time.perf_counter() - wall0)
     checks = {f"check:{c['name']}": "pass" if c["passed"] else "FAIL" for c in result.checks}
     return case_row(case, applied, result.status, result.passed, result.error or "", result.wall_s,

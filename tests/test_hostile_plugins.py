@@ -20,6 +20,7 @@ import yaml
 
 import testbed
 from testbed.cli import main
+from testbed.errors import ERROR_LIMIT
 
 HOSTILE_LAW = '''
 import os
@@ -145,12 +146,28 @@ def run_json(capfd, *argv) -> tuple[int, object, str]:
     ("generator_exit", "GeneratorExit: closed"),
     ("unprintable", "Unprintable (its message cannot be printed)"),
     ("sys_exit", "it exited the process (sys.exit(0))"),
+    ("text", "key 'torque' is not numeric: ['1', '2', '3']"),
 ])
-def test_a_stage_that_raises_anything_fails_the_run(hostile, capfd, tmp_path, mode, reason):
+def test_a_stage_that_raises_anything_or_returns_text_fails_the_run(hostile, capfd, tmp_path, mode, reason):
     out = tmp_path / "x.rrd"
     code, result, _ = run_json(capfd, "run", hostile.scenario(mode), "--out", out)
     assert (code, result["status"], result["error"]) == (1, "error", hostile.failed(reason))
     assert testbed.read(out).error == hostile.failed(reason)  # the trace up to t = 0.19 s is kept
+
+
+def test_a_complex_torque_fails_the_run(hostile, capfd, tmp_path):
+    """float() of a complex array drops its imaginary part (with a warning main() ignores)."""
+    code, result, _ = run_json(capfd, "run", hostile.scenario("complex"), "--out", tmp_path / "x.rrd")
+    assert (code, result["status"]) == (1, "error")
+    assert result["error"].startswith(hostile.failed("returned a complex 'torque': ")), result["error"]
+
+
+def test_a_100_kB_multi_line_message_is_one_bounded_line(hostile, capfd, tmp_path):
+    code, result, _ = run_json(capfd, "run", hostile.scenario("long"), "--out", tmp_path / "x.rrd")
+    error = result["error"]
+    assert (code, result["status"], len(error)) == (1, "error", ERROR_LIMIT)
+    assert error.startswith(hostile.failed("RuntimeError: a line a line a line ")) and error.endswith("..."), error
+    assert error.isprintable()
 
 
 def test_a_metric_that_calls_sys_exit_fails_its_check(hostile, capfd, tmp_path):
