@@ -31,6 +31,9 @@ from dataclasses import dataclass
 import numpy as np
 import testbed
 
+print("printed by the plug-in on import")
+
+
 class Weird(BaseException):
     """A direct subclass of BaseException, not an Exception."""
 
@@ -245,3 +248,22 @@ def test_the_exit_guard_raises_only_in_its_own_thread_and_process(tmp_path):
     path = Path(testbed.__file__).with_name("exit_guard.py")
     done = subprocess.run([sys.executable, "-c", GUARD_SCRIPT, str(path)], capture_output=True, text=True, timeout=60)
     assert (done.returncode, done.stdout, done.stderr) == (7, "raised 3 True\nchild 5\n", "")
+
+
+@pytest.mark.parametrize("argv", [["run", "{scenario}", "--out", "{tmp}/x.rrd"],
+                                  ["check", "{scenario}", "--out-dir", "{tmp}"],
+                                  ["sweep", "{campaign}", "--case", "0", "--out", "{tmp}/sweep"]],
+                         ids=["run", "check", "sweep --case"])
+def test_with_json_a_stages_output_goes_to_stderr(hostile, capfd, tmp_path, argv):
+    """--json: stdout parses as one document, and what the plug-in wrote is on stderr; without
+    --json it stays on stdout (the plug-in is imported once: its import's line is not repeated)."""
+    names = {"scenario": hostile.scenario("print"), "campaign": hostile.scenario("print", modes=["print"]),
+             "tmp": tmp_path}
+    argv = [a.format(**names) for a in argv]
+    code, document, err = run_json(capfd, *argv)
+    assert code == 0, document
+    for line in ("printed by the plug-in on import", "printed by the stage", "written to fd 1 by the stage"):
+        assert line in err.splitlines(), err[-500:]
+    assert main(argv) == 0
+    out = capfd.readouterr().out.splitlines()
+    assert out.count("printed by the stage") == 50 and out.count("written to fd 1 by the stage") == 50
