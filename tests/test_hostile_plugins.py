@@ -267,3 +267,23 @@ def test_with_json_a_stages_output_goes_to_stderr(hostile, capfd, tmp_path, argv
     assert main(argv) == 0
     out = capfd.readouterr().out.splitlines()
     assert out.count("printed by the stage") == 50 and out.count("written to fd 1 by the stage") == 50
+
+
+def test_a_campaign_turns_every_hostile_stage_into_its_error_row(hostile, capfd, tmp_path):
+    """One worker process runs every case: a stage that exits its process or raises a
+    KeyboardInterrupt there costs its own row, not the worker; stdout holds only the JSON."""
+    expected = {"ok": "", "print": "", "warn": "",
+                "base_exception": hostile.failed("Weird: weird"),
+                "keyboard_interrupt": hostile.failed("KeyboardInterrupt"),
+                "sys_exit": hostile.failed("it exited the process (sys.exit(0))"),
+                "os_exit": hostile.failed("it exited the process (os._exit(0))"),
+                "unprintable": hostile.failed("Unprintable (its message cannot be printed)")}
+    campaign = hostile.scenario("ok", modes=list(expected))
+    code, rows, err = run_json(capfd, "campaign", campaign, "--workers", "1", "--out", tmp_path / "out")
+    assert code == 1
+    assert {r["pipeline.law.mode"]: r["error"] for r in rows} == expected
+    assert [r["status"] for r in rows] == ["ok"] * 3 + ["error"] * 5
+    with open(tmp_path / "out" / "hostile.csv", newline="") as handle:
+        assert {r["pipeline.law.mode"]: r["error"] for r in csv.DictReader(handle)} == expected
+    assert "printed by the stage" in err.splitlines()  # from the worker process
+    assert "Warning" not in err and "warned by the stage" not in err, err[-1000:]
