@@ -63,8 +63,11 @@ class WorkerDied:
 def _warm_up() -> str:
     """Run once in every worker: import the testbed and register its systems and stages, so
     that the first case on a worker does not pay for it."""
+    import warnings
+
     from testbed.plugins import discover
 
+    warnings.simplefilter("ignore")  # as in the command's own process (testbed.cli.main): none printed raw
     discover()
     return "ready"
 

@@ -19,6 +19,7 @@ from testbed import init_command  # noqa: F401  (registers the `init` subcommand
 from testbed.commands import COMMANDS, reported
 from testbed.errors import InputError
 from testbed.interrupts import Terminated, signals_as_exceptions
+from testbed.json_stdout import reserved_for_json
 from testbed.plugins import discover
 from testbed.progress import advance_to, progress_bar
 from testbed.runner import run_scenario
@@ -112,7 +113,8 @@ def _print_checks(rows) -> None:
 
 def _cmd_run(args) -> int:
     tty = sys.stderr.isatty() and not args.json
-    result = _run_one(args.scenario, args.set, args.out, tty, args.view, args.connect)
+    with reserved_for_json(args.json):  # a plug-in's prints go to stderr
+        result = _run_one(args.scenario, args.set, args.out, tty, args.view, args.connect)
     return reported(EXIT_OK if result.passed else EXIT_FAILED,
                     lambda: print(json.dumps(result.as_json())) if args.json else _print_summary(result))
 
@@ -122,12 +124,14 @@ def _cmd_check(args) -> int:
     from testbed.shipped_files import SCENARIO_DIR
 
     names = args.scenarios or sorted(str(p) for p in SCENARIO_DIR.glob("*.yaml"))
-    scenarios = [api.load(name) for name in names]  # every one valid before any runs
-    for scenario in scenarios:
-        prepare(scenario)
-    outs = [trace.output_path(Path(args.out_dir) / f"{trace.file_stem(Path(n).stem)}.rrd", "--out-dir") for n in names]
-    show = sys.stderr.isatty() and not args.json
-    results = [_run_loaded(scenario, out, show) for scenario, out in zip(scenarios, outs)]
+    with reserved_for_json(args.json):  # a plug-in's prints go to stderr
+        scenarios = [api.load(name) for name in names]  # every one valid before any runs
+        for scenario in scenarios:
+            prepare(scenario)
+        outs = [trace.output_path(Path(args.out_dir) / f"{trace.file_stem(Path(n).stem)}.rrd", "--out-dir")
+                for n in names]
+        show = sys.stderr.isatty() and not args.json
+        results = [_run_loaded(scenario, out, show) for scenario, out in zip(scenarios, outs)]
 
     def report():
         if args.json:

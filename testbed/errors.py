@@ -5,6 +5,9 @@ import reprlib
 
 import numpy as np
 
+from testbed.exit_guard import ExitCalled
+from testbed.interrupts import from_a_signal
+
 _REPR = reprlib.Repr()
 _REPR.maxlevel, _REPR.maxlist, _REPR.maxdict, _REPR.maxstring, _REPR.maxother, _REPR.maxlong = 3, 6, 4, 60, 60, 40
 QUOTE_LIMIT = 80
@@ -26,6 +29,33 @@ def one_line(text) -> str:
     word (a value, a key, a path) longer than WORD_LIMIT characters cut short."""
     text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in " ".join(str(text).split()))
     return " ".join(w if len(w) <= WORD_LIMIT else w[: WORD_LIMIT - 3] + "..." for w in text.split(" "))
+
+
+ERROR_LIMIT = 300  # characters of a run's or a campaign row's error
+
+
+def error_line(text) -> str:
+    """`text` as one printable line (`one_line`) of at most ERROR_LIMIT characters: a run's or
+    a campaign row's error, whatever a stage's message held."""
+    line = one_line(str(text)[: 100 * ERROR_LIMIT])  # enough for the line: megabytes cost no time
+    return line if len(line) <= ERROR_LIMIT else line[: ERROR_LIMIT - 3] + "..."
+
+
+def described(exc: BaseException) -> str:
+    """What a user's code raised, for an error message: `Type: message`; `it exited the process
+    (sys.exit(0))` for sys.exit or os._exit (testbed.exit_guard); the type alone, said so, when
+    its message cannot be made (a __str__ that raises)."""
+    if isinstance(exc, SystemExit):
+        call = "os._exit" if isinstance(exc, ExitCalled) else "sys.exit"
+        return f"it exited the process ({call}({quoted(exc.code)}))"
+    name = type(exc).__name__
+    try:
+        message = str(exc)
+    except BaseException as failure:  # noqa: BLE001  (whatever a hostile __str__ raises)
+        if from_a_signal(failure):
+            raise
+        return f"{name} (its message cannot be printed)"
+    return f"{name}: {message}" if message else name
 
 
 class InputError(Exception):

@@ -23,6 +23,13 @@ class Terminated(BaseException):
     error handling would catch) so that a trace being written is removed on the way out."""
 
 
+def from_a_signal(exc: BaseException) -> bool:
+    """Whether `exc` may be Ctrl-C or SIGTERM arriving: KeyboardInterrupt or `Terminated` in
+    the main thread, where Python runs signal handlers. It ends the command (130, 143); raised
+    in another thread (a campaign worker's) it is the raising code's own failure."""
+    return isinstance(exc, (KeyboardInterrupt, Terminated)) and threading.current_thread() is threading.main_thread()
+
+
 def inside_finalizer(frame) -> bool:
     """Whether `frame` or one of its callers is a `__del__`, where an exception is dropped."""
     while frame is not None:

@@ -13,7 +13,8 @@ from typing import Callable
 import numpy as np
 
 from testbed import pipeline, systems_registry
-from testbed.errors import InputError
+from testbed.errors import InputError, described, error_line
+from testbed.interrupts import from_a_signal
 from testbed.reductions import First, Last, MaxDistanceFromFirst, MaxNorm
 from testbed.registry import Registry
 
@@ -90,8 +91,10 @@ def compute_all(run) -> tuple[dict[str, float], dict[str, str]]:
         try:
             with np.errstate(all="ignore"):
                 values[name] = float(METRICS[name].compute(run))
-        except Exception as exc:  # noqa: BLE001  (a metric of a partial or odd trace)
-            values[name], why[name] = float("nan"), f"{type(exc).__name__}: {exc}"
+        except BaseException as exc:  # a metric of a partial or odd trace; a plug-in's sys.exit too
+            if from_a_signal(exc):
+                raise
+            values[name], why[name] = float("nan"), error_line(described(exc))
         if not np.isfinite(values[name]) and name not in why:
             why[name] = "the recorded signals give no finite value"
     return values, why

@@ -25,7 +25,9 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from testbed.errors import InputError, quoted, refused_as
+from testbed.errors import InputError, described, quoted, refused_as
+from testbed.exit_guard import os_exit_raises
+from testbed.interrupts import from_a_signal
 from testbed.registry import Registry
 
 SLOTS = ("sensor", "estimator", "law", "allocator")
@@ -177,7 +179,20 @@ def stage_infos(configs: dict) -> dict[str, StageInfo]:
 
 
 def build(slot: str, name: str, params, ctx: StageContext):
-    return stage_class(slot, name)(params, ctx)
+    """The stage `name` of `slot` constructed; a plug-in stage whose constructor fails (raises
+    anything, exits the process) is bad input naming the slot, before anything runs."""
+    cls = stage_class(slot, name)
+    if cls.__module__.startswith("testbed."):
+        return cls(params, ctx)
+    try:
+        with os_exit_raises():
+            return cls(params, ctx)
+    except InputError:
+        raise
+    except BaseException as exc:
+        if from_a_signal(exc):
+            raise
+        raise InputError(f"pipeline.{slot}", f"{name} cannot be built: {described(exc)}") from None
 
 
 class StageFailed(RuntimeError):
@@ -195,7 +210,7 @@ INTERFACE_SHAPES = {"law": {"torque": (3,)}}
 
 class OutputCheck:
     """Checks one stage's output at every tick: a dict with its declared `outputs` keys, each a
-    finite numeric array whose shape is the interface's, or else the one it had at the first tick.
+    finite real array whose shape is the interface's, or else the one it had at the first tick.
     Applied to stages from outside the package (plug-ins); the built-ins are tested instead."""
 
     def __init__(self, slot: str, name: str, required=(), shapes: dict | None = None):
@@ -210,8 +225,15 @@ class OutputCheck:
                 raise StageFailed(t, self.slot, self.name, f"missing key {key!r} (it declares {list(self.required)})")
         for key, value in out.items():
             try:
-                array = np.asarray(value, dtype=float)
-            except (TypeError, ValueError):
+                array = np.asarray(value)
+                kind = array.dtype.kind
+                if kind != "f":
+                    if kind == "c":  # float() of it would drop the imaginary part
+                        raise StageFailed(t, self.slot, self.name, f"returned a complex {key!r}: {quoted(value)}")
+                    if kind not in "biuO":  # text, dates: not numbers, though float() may read them
+                        raise TypeError
+                    array = array.astype(float)
+            except (TypeError, ValueError, OverflowError):
                 raise StageFailed(t, self.slot, self.name, f"key {key!r} is not numeric: {quoted(value)}") from None
             expected = self.shapes.setdefault(key, array.shape)
             if array.shape != expected:
@@ -232,7 +254,8 @@ def _returns_nothing(stage_object) -> bool:
 class Pipeline:
     """One control tick: run the four stages in order and hand the command to the plant.
 
-    A stage that raises, or a plug-in stage whose output fails its `OutputCheck`, stops the
+    A stage that raises (anything but Ctrl-C or SIGTERM arriving: sys.exit and os._exit too,
+    testbed.exit_guard), or a plug-in stage whose output fails its `OutputCheck`, stops the
     run with `StageFailed` naming the stage, the time and the reason. The tick builds
     nothing it does not need: a built-in empty slot (`none`, which returns nothing) is not
     called, a built-in stage's output is not checked, and the outputs stay where the stages
@@ -300,7 +323,9 @@ class Pipeline:
             plant.apply(self.command)
         except StageFailed:
             raise
-        except Exception as exc:  # the stage's own failure: name it, keep the trace so far
+        except BaseException as exc:  # the stage's own failure, sys.exit too: name it, keep the trace so far
+            if from_a_signal(exc):
+                raise
             raise self._failed(t, slot, exc) from exc
 
     def _allocate(self, t: float, plant) -> None:
@@ -313,13 +338,14 @@ class Pipeline:
             plant.apply(self.command)
         except StageFailed:
             raise
-        except Exception as exc:
+        except BaseException as exc:
+            if from_a_signal(exc):
+                raise
             raise self._failed(t, "allocator", exc) from exc
 
-    def _failed(self, t: float, slot: str, exc: Exception) -> StageFailed:
+    def _failed(self, t: float, slot: str, exc: BaseException) -> StageFailed:
         stage_object = getattr(self, slot)
-        return StageFailed(t, slot, getattr(stage_object, "type_name", type(stage_object).__name__),
-                           f"{type(exc).__name__}: {exc}")
+        return StageFailed(t, slot, getattr(stage_object, "type_name", type(stage_object).__name__), described(exc))
 
     def sense(self, t: float, plant) -> None:
         """Sensor and estimator at time t: the first half of `tick`, and alone a sample between
@@ -338,7 +364,9 @@ class Pipeline:
                     self._estimator_check(t, self.estimate)
         except StageFailed:
             raise
-        except Exception as exc:
+        except BaseException as exc:
+            if from_a_signal(exc):
+                raise
             raise self._failed(t, slot, exc) from exc
 
     def sensed_signals(self) -> dict[str, dict[str, np.ndarray]]:

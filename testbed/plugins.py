@@ -25,7 +25,9 @@ import sys
 import traceback
 from pathlib import Path
 
-from testbed.errors import InputError
+from testbed import exit_guard
+from testbed.errors import InputError, described
+from testbed.interrupts import from_a_signal
 from testbed.math.validation import existing_file
 from testbed.registry import DuplicateName, restore, snapshot
 
@@ -73,23 +75,27 @@ def _load(field: str, key: str, do_import, where: str) -> None:
         return
     saved = snapshot()
     try:
-        _loaded[key] = do_import()
+        with exit_guard.os_exit_raises():
+            _loaded[key] = do_import()
     except DuplicateName as exc:
         restore(saved)
         raise InputError(field, f"{where}: {exc}: a plug-in may not shadow a built-in or another "
                                 f"plug-in; give it a namespaced name (e.g. 'mylab.<name>')") from None
-    except Exception as exc:  # the plug-in's own code failed: report where, not our traceback
+    except BaseException as exc:  # the plug-in's own code failed (sys.exit too): report where, not our traceback
         restore(saved)
-        raise InputError(field, f"{_failure_place(exc, where)}: {type(exc).__name__}: {exc}") from None
+        if from_a_signal(exc):
+            raise
+        raise InputError(field, f"{_failure_place(exc, where)}: {described(exc)}") from None
 
 
 def _failure_place(exc: BaseException, where: str) -> str:
     """file:line of the failure inside the plug-in (its last frame), else the plug-in's name."""
     if isinstance(exc, SyntaxError) and exc.filename:
         return f"{exc.filename}:{exc.lineno}"
+    ours = {Path(__file__).resolve(), Path(exit_guard.__file__).resolve()}  # os._exit raises in exit_guard
     frames = [f for f in traceback.extract_tb(exc.__traceback__)
               if "importlib" not in f.filename and not f.filename.startswith("<frozen")
-              and Path(f.filename).resolve() != Path(__file__).resolve()]
+              and Path(f.filename).resolve() not in ours]
     return f"{frames[-1].filename}:{frames[-1].lineno}" if frames else where
 
 

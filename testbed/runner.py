@@ -15,7 +15,8 @@ import numpy as np
 
 from testbed import metrics, references_registry, systems_registry, trace
 from testbed.blas_threads import one_blas_thread
-from testbed.errors import InputError, refused_as
+from testbed.errors import InputError, error_line, refused_as
+from testbed.exit_guard import os_exit_raises
 from testbed.pipeline import Pipeline, StageContext, StageFailed, params_dict, stage_infos
 from testbed.plant import SimulationDiverged
 from testbed.recorder import FLUSH_AFTER_S, Chunk, Recorder, Trace
@@ -126,8 +127,9 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     streamed to as it goes, never waited for; the file and the viewer get a chunk at least
     every FLUSH_AFTER_S of wall time; `progress(fraction)` is called about 200 times;
     `on_prepared(plant, pipeline)` sees the built plant and stages before the first step (a
-    campaign reads back what the case runs with)."""
-    with one_blas_thread():
+    campaign reads back what the case runs with). os._exit called by a plug-in's code raises
+    (testbed.exit_guard), so that a stage that calls it fails the run."""
+    with one_blas_thread(), os_exit_raises():
         return _run(scenario, out, progress, keep_data, live, on_prepared)
 
 
@@ -182,7 +184,7 @@ def _run(scenario, out, progress, keep_data, live, on_prepared) -> RunResult:
                        plant.description(), momentum_scale, stream.reference_error, reductions=reductions)
         values, why = metrics.compute_all(data) if recorder.count > 1 else ({}, {})
         checks = metrics.evaluate_checks(scenario, values, why)
-        result = RunResult(scenario.name, recorder.last_time, 0.0, status, error,
+        result = RunResult(scenario.name, recorder.last_time, 0.0, status, error and error_line(error),
                            values, checks, str(out) if out else None, data if keep_data else None,
                            Trace.from_recorder(recorder) if keep_data else None)
         if writer is not None:

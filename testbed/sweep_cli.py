@@ -28,6 +28,7 @@ from pathlib import Path
 
 from testbed.commands import command, reported
 from testbed.errors import InputError
+from testbed.json_stdout import reserved_for_json
 from testbed.progress import advance_to, progress_bar
 
 EXIT_OK, EXIT_FAILED = 0, 1
@@ -109,13 +110,15 @@ def run(args) -> int:
         return _rerun_case(args)
     from testbed.campaign_engine import Engine
 
-    name, data, cases = load_cases(args.scenario, args.set)
-    out = output_folder(args, name)
-    table, done = open_table(out, name, data, cases, args)  # refuses a damaged folder; writes nothing
-    with Engine(workers, args.scheduler) as engine:  # an unreachable scheduler is refused before any file is written
-        table.start()
-        rows = _run_into(table, done, cases, engine, out if args.rrd else None, args)
-    lines = summarise(name, data, rows, cases, out, args)
+    # a plug-in's prints go to stderr, the workers' too (they inherit it as their stdout)
+    with reserved_for_json(args.json):
+        name, data, cases = load_cases(args.scenario, args.set)
+        out = output_folder(args, name)
+        table, done = open_table(out, name, data, cases, args)  # refuses a damaged folder; writes nothing
+        with Engine(workers, args.scheduler) as engine:  # an unreachable scheduler is refused before any file is written
+            table.start()
+            rows = _run_into(table, done, cases, engine, out if args.rrd else None, args)
+        lines = summarise(name, data, rows, cases, out, args)
 
     def report():
         if args.json:
@@ -211,12 +214,13 @@ def _rerun_case(args) -> int:
     from testbed.sweep_runner import run_case
     from testbed.trace import output_path
 
-    name, _, _, spec = load_campaign(args.scenario, args.set)
-    if not 0 <= args.case < spec.count:
-        raise InputError("--case", f"must be a case number 0 ... {spec.count - 1}, got {args.case}")
-    _, _, (case,) = load_cases(args.scenario, args.set, [args.case])
-    rrd = output_path(output_folder(args, name) / f"case{case.index:04d}.rrd")
-    row = run_case(case, str(rrd))
+    with reserved_for_json(args.json):  # a plug-in's prints go to stderr
+        name, _, _, spec = load_campaign(args.scenario, args.set)
+        if not 0 <= args.case < spec.count:
+            raise InputError("--case", f"must be a case number 0 ... {spec.count - 1}, got {args.case}")
+        _, _, (case,) = load_cases(args.scenario, args.set, [args.case])
+        rrd = output_path(output_folder(args, name) / f"case{case.index:04d}.rrd")
+        row = run_case(case, str(rrd))
 
     def report():
         if args.json:

@@ -17,6 +17,8 @@ import traceback
 from pathlib import Path
 from typing import Callable
 
+from testbed.errors import described, error_line
+from testbed.interrupts import from_a_signal
 from testbed.schema import is_number
 from testbed.sweep import Case
 
@@ -66,10 +68,12 @@ def run_case(case: Case, rrd: str | None = None) -> dict:
     try:
         scenario = parse(case.data, case.source)
         result = run_scenario(scenario, Path(rrd) if rrd else None, on_prepared=read_back)
-    except Exception as exc:  # noqa: BLE001  (a case's failure belongs in its row)
+    except BaseException as exc:  # a case's failure belongs in its row, sys.exit in a worker too
+        if from_a_signal(exc):
+            raise
         last = traceback.extract_tb(exc.__traceback__)[-1]
         return case_row(case, applied, "error", False,
-                        f"{type(exc).__name__}: {exc} ({Path(last.filename).name}:{last.lineno})",
+                        error_line(f"{described(exc)} ({Path(last.filename).name}:{last.lineno})"),
                         time.perf_counter() - wall0)
     checks = {f"check:{c['name']}": "pass" if c["passed"] else "FAIL" for c in result.checks}
     return case_row(case, applied, result.status, result.passed, result.error or "", result.wall_s,
