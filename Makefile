@@ -3,7 +3,7 @@
 PY := .venv/bin/python
 FLAGSHIP ?= lebedev_spinup_cmg
 
-.PHONY: run test test-fast bench
+.PHONY: run test test-fast bench docs
 run: .venv/.installed
 	$(PY) -m testbed run $(FLAGSHIP)
 
@@ -13,6 +13,10 @@ test: .venv/.installed
 # Everything but the tests marked slow (whole-scenario runs): under a minute.
 test-fast: .venv/.installed
 	$(PY) -m pytest -m "not slow"
+
+# The documentation site (mkdocs.yml, docs/) into site/; --strict: a broken link or reference fails.
+docs: .venv/.installed
+	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs build --strict -d site
 
 bench: .venv/.installed
 	$(PY) bench/bench_pipeline.py

@@ -1,4 +1,4 @@
-"""Where one gyro stops observing a spinning CMG spacecraft with stored momentum (README table),
+"""Where one gyro stops observing a spinning CMG spacecraft with stored momentum (docs/theory/lebedev.md, its table),
 and how the shipped stored-momentum scenario fares on random stored momenta.
 
     .venv/bin/python bench/lebedev_momentum_boundary.py [--inertia 1250,6900,7100] [--spin-deg-s 1] [--axis 1,1,1]

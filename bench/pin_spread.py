@@ -1,4 +1,4 @@
-"""How far round-off moves each pinned metric, and the tolerance class that follows (README,
+"""How far round-off moves each pinned metric, and the tolerance class that follows (docs/validation.md,
 "Testing: pinned numbers").
 
 A pinned metric is re-measured under other floating-point kernels, chosen by hand in the shell

@@ -1,11 +1,11 @@
-"""The README's "Steering study": every steering law on the same random rest-to-rest slews.
+"""docs/theory/steering.md, "Steering study": every steering law on the same random rest-to-rest slews.
 
 Each slew starts at rest from the zero-momentum set (45, -45, -45, 45) deg of
 reorient_near_singular's spacecraft (h = 20 N m s, beta'max = 30 deg/s): axis uniform on the
 sphere, angle uniform in [30, 150] deg, duration 40 s x angle / 60 deg, so the program's peak
 rate (1.5 angle / duration, SEEDS §004's cubic angle) and with it the peak |H| (about 2 h) are
 the same for every angle; 5 s at rest before, 15 s after. With this h and duration about half
-the plain min-max paths come within 1e-3 of a singular set (measured: README "Steering study").
+the plain min-max paths come within 1e-3 of a singular set (measured: docs/theory/steering.md "Steering study").
 Every law flies the same slews and the table gives, per law: how many runs come within 1e-3 of
 a singular set (min sqrt(det JJ')), the peak gimbal rate, the torque error, the final attitude
 error, and every limit violation. `--limits` adds a 200 deg/s^2 acceleration limit and stops
@@ -129,7 +129,7 @@ def read_rows(path: Path) -> list[dict]:
 
 
 def table(rows: list[dict], laws: list[str]) -> str:
-    """The Markdown table of the README, one line per law (its finished runs)."""
+    """The Markdown table of docs/theory/steering.md, one line per law (its finished runs)."""
     lines = ["| law | runs within 1e-3 of a singular set | min √det(JJᵀ) | peak gimbal rate median / max [deg/s] "
              "| torque error (rel. RMS) median / max | final att. error median / max [deg] | failed runs "
              "| rate / acceleration / angle violations |",
@@ -169,7 +169,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=200, help="slews (each flown by every law)")
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--seed", type=int, default=SEED, help="of the random slews (the README's table: 14)")
+    parser.add_argument("--seed", type=int, default=SEED, help="of the random slews (the docs' table: 14)")
     parser.add_argument("--limits", action="store_true", help="add the acceleration limit and the stops")
     parser.add_argument("--laws", default=",".join(STEERING_LAWS))
     parser.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE")

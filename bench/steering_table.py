@@ -1,4 +1,4 @@
-"""The README's "Steering laws compared" table: each steering law on the reorientation slews.
+"""The "Steering laws compared" table of docs/theory/steering.md: each steering law on the reorientation slews.
 
 Runs reorient_minimax's slew (the one reorient_pinv also flies) and reorient_near_singular
 with every steering allocator and prints a Markdown table of their metrics. About a minute

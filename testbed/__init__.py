@@ -1,6 +1,6 @@
 """Gyrodyne testbed: MuJoCo spacecraft attitude control with control-moment gyroscopes.
 
-The public API (README, "Python API"):
+The public API (docs/api.md, "Python API"):
 
 - `load(name_or_path, overrides)`, `run(scenario, out=None)`, `read(rrd)`: scenarios and runs;
   a run's `RunResult` carries status, metrics, checks and `trace[key] -> (t, values)`.

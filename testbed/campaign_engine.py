@@ -2,7 +2,7 @@
 
 `Engine()` starts a local cluster inside the command, one single-threaded worker process per
 core (or `workers`); `Engine(scheduler="tcp://HOST:PORT")` submits to a cluster started with
-`dask scheduler` and `dask worker` (README, "Several machines"), refused as bad input
+`dask scheduler` and `dask worker` (docs/campaigns.md, "Several machines"), refused as bad input
 when nothing answers there within SCHEDULER_TIMEOUT_S or no worker joins.
 
 `results(fn, tasks)` runs fn(*args) for every argument tuple and yields (args, outcome) as each

@@ -25,7 +25,7 @@ SCENARIO_TEMPLATE = """\
 # One experiment: the spacecraft, its initial state, the control pipeline and the checks.
 # Run it with:   testbed run {scenario_path}
 # Units are in the key names (_s, _deg, _deg_s, _kg_m2, ...); quaternions are (w, x, y, z),
-# body to world. Every key is listed in the README, section "Scenario files". Any key can be
+# body to world. Every key is listed in docs/scenarios.md, section "Scenario files". Any key can be
 # changed for one run without editing this file: --set pipeline.law.natural_frequency_rad_s=0.1
 # This file is read as data (YAML safe loader); only the plug-ins below run code.
 

@@ -52,7 +52,7 @@ class SimConfig:
         "sensor and estimator period, a whole divisor of control_period_s (default: control_period_s)"))
     trace_period_s: float | None = param(None, gt=0, doc="trace sample period (default control period)")
     trace_envelope_s: float | None = param(None, gt=0, doc="the .rrd holds each signal's min and max over windows "
-                                           "of this length instead of every sample (README \"Long runs\")")
+                                           "of this length instead of every sample (docs/trace.md \"Long runs\")")
 
     def validate(self, path: str) -> None:
         if self.control_period_s is None:

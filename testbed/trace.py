@@ -148,7 +148,7 @@ class TraceWriter:
     name} of body-frame momenta to draw on the bus, and `units` {signal name: unit} beside UNITS.
     `envelope_rows` > 1: each signal is written as its envelope over blocks of that many samples
     (`envelope`, entities `<key>/min` and `<key>/max`) and the 3D scene at each block's first
-    sample, so that a very long run gives a trace a viewer can open (README "Long runs").
+    sample, so that a very long run gives a trace a viewer can open (docs/trace.md "Long runs").
     """
 
     def __init__(self, rec, scenario_name: str, end_time: float, scene: dict | None = None, envelope_rows: int = 1):
@@ -244,7 +244,7 @@ def recording_to(path, application: str = APP_ID, live=None, footer: bool = True
     for it. `footer`: end the file with Rerun's footer, a manifest of every chunk for random
     access, which Rerun keeps in memory until the end (about 200 B a chunk, a chunk per signal
     and flush): a long run goes without it, so that its memory does not grow with its duration
-    (README "Long runs"; `rerun rrd optimize` adds it afterwards)."""
+    (docs/trace.md "Long runs"; `rerun rrd optimize` adds it afterwards)."""
     partial, rec = None, None
     recording_id = str(uuid.uuid4())
     try:

@@ -340,7 +340,7 @@ def test_an_output_folder_that_cannot_be_written_is_refused_first(tmp_path, caps
 
 @pytest.mark.parametrize("name, count", [("lebedev_spinup_campaign", 200), ("reorient_campaign", 200)])
 def test_the_shipped_campaigns_build_and_read_back(name, count):
-    """The README's campaigns: their case count, and a few cases each built as they will run,
+    """The campaigns of docs/campaigns.md: their case count, and a few cases each built as they will run,
     every dispersed value found again in the built model and stages."""
     from testbed.sweep_cli import load_cases
 

@@ -5,7 +5,7 @@ numbers computed here, independently of the example's own code, from the trace a
 the user's PD torque recomputed from the recorded estimate, the weighted pseudo-inverse's
 h J(beta) beta' = H' with J written out from the rhombus geometry, the star tracker's output
 against the true attitude N ticks earlier, the sweep script's table against API runs.
-The README's "Write your own controller" commands are run verbatim in an empty folder.
+The commands of docs/controller.md, "Write your own controller", are run verbatim in an empty folder.
 
 Fast tests run the scenarios shortened (--set sim.duration_s=...); the whole runs are slow.
 """
@@ -291,20 +291,38 @@ def test_init_never_overwrites(tmp_path, capsys):
     assert main(["init", str(empty)]) == 2  # and a second time refused, the files untouched
 
 
-# --- README: "Write your own controller", verbatim ----------------------------------------------
+# --- docs/controller.md: "Write your own controller", verbatim ---------------------------------
 
-def readme_commands(section: str) -> str:
-    """The ```sh blocks under the README heading `## <section>`, up to the next `## ` heading."""
-    text = (ROOT / "README.md").read_text()
-    match = re.search(rf"^## {re.escape(section)}\n(.*?)(?=^## )", text, re.M | re.S)
-    assert match, f"README has no section {section!r}"
-    blocks = re.findall(r"^```sh\n(.*?)^```", match.group(1), re.M | re.S)
-    assert blocks, f"no ```sh block under {section!r}"
+DOCS = ROOT / "docs"
+
+
+def section_of(page: str, heading: str) -> str:
+    """The text of docs/<page> under the heading `heading` (any level), up to the next heading
+    of the same or a higher level; a `#` line inside a code block is no heading."""
+    lines = (DOCS / page).read_text(encoding="utf-8").splitlines(keepends=True)
+    level, kept, fence = None, [], False
+    for line in lines:
+        fence ^= line.startswith("```")
+        title = re.match(r"(#+) (.*)\n", line) if not fence and not line.startswith("```") else None
+        if title and level is not None and len(title.group(1)) <= level:
+            break
+        if level is not None:
+            kept.append(line)
+        elif title and title.group(2) == heading:
+            level = len(title.group(1))
+    assert level is not None, f"docs/{page} has no heading {heading!r}"
+    return "".join(kept)
+
+
+def docs_commands(page: str, heading: str) -> str:
+    """The ```sh blocks under `heading` in docs/<page>."""
+    blocks = re.findall(r"^```sh\n(.*?)^```", section_of(page, heading), re.M | re.S)
+    assert blocks, f"no ```sh block under {heading!r} in docs/{page}"
     return "".join(blocks)
 
 
-def test_the_readme_write_your_own_controller_commands_run_verbatim(tmp_path):
-    script = readme_commands("Write your own controller")
+def test_the_docs_write_your_own_controller_commands_run_verbatim(tmp_path):
+    script = docs_commands("controller.md", "Write your own controller")
     commands = [line.split("#")[0].strip() for line in script.splitlines() if line.split("#")[0].strip()]
     assert commands == ["testbed init mysat", "testbed run mysat/my_scenario.yaml"]
     env = dict(os.environ, PATH=os.pathsep.join([str(VENV_BIN), os.environ.get("PATH", "")]))
@@ -316,11 +334,9 @@ def test_the_readme_write_your_own_controller_commands_run_verbatim(tmp_path):
 
 
 @pytest.mark.slow
-def test_the_readme_python_api_example_runs(tmp_path, monkeypatch, capsys):
-    text = (ROOT / "README.md").read_text()
-    section = re.search(r"^## Python API\n(.*?)(?=^## )", text, re.M | re.S).group(1)
-    (code,) = re.findall(r"^```python\n(.*?)^```", section, re.M | re.S)
+def test_the_docs_python_api_example_runs(tmp_path, monkeypatch, capsys):
+    (code,) = re.findall(r"^```python\n(.*?)^```", section_of("api.md", "Python API"), re.M | re.S)
     monkeypatch.chdir(tmp_path)
-    exec(compile(code, "README.md (Python API)", "exec"), {})
+    exec(compile(code, "docs/api.md (Python API)", "exec"), {})
     assert capsys.readouterr().out.startswith("ok True 4.93")  # reorient_minimax's peak rate (its pin)
     assert (tmp_path / "minimax6.rrd").is_file()

@@ -344,7 +344,7 @@ def test_sweep_distribution_spanning_the_float_range(cli, distribution):
 @pytest.mark.parametrize("duration, trace_period", [("10", "3"), ("20", "1000")])
 def test_trace_period_that_does_not_divide_the_run(cli, duration, trace_period):
     """A trace period that does not divide the duration (or exceeds it): refused naming
-    sim.trace_period_s, or the run is whole: README "the final state, at duration_s, is recorded
+    sim.trace_period_s, or the run is whole: docs/api.md "the final state, at duration_s, is recorded
     for truth/*", so the trace and sim_s reach duration_s (and final_* metrics are final)."""
     out = Path.cwd() / "x.rrd"
     result = cli("run", "torque_free_skylab", "--out", out, "--json", "--set", f"sim.duration_s={duration}",

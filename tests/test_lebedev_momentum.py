@@ -72,7 +72,7 @@ def test_axial_closed_form_on_random_bodies():
 
 def test_radius_is_the_nearest_unobservable_momentum():
     r, nearest = observable_momentum_radius(SKYLAB_1000, DEG, PAPER_AXIS)
-    assert r == pytest.approx(15.38, abs=0.01)          # the flagship's spacecraft (README)
+    assert r == pytest.approx(15.38, abs=0.01)          # the flagship's spacecraft (docs/theory/lebedev.md)
     assert r < SKYLAB_1000[0] * DEG                      # nearer than the axial zero at Ix Omega
     d0 = observability_determinant(SKYLAB_1000, DEG, PAPER_AXIS, np.zeros(3))
     assert abs(observability_determinant(SKYLAB_1000, DEG, PAPER_AXIS, nearest)) < 1e-6 * abs(d0)

@@ -173,7 +173,7 @@ def test_estimator_sees_only_the_gyro_and_its_error_follows_the_observer(spinup)
 
 @pytest.mark.slow
 def test_bias_offsets_the_spin_by_minus_b_over_gamma():
-    """Steady state of (4.6)-(4.7) with y = p . w + b: w = (0, 0, Omega - b / gamma), z = 0 (README)."""
+    """Steady state of (4.6)-(4.7) with y = p . w + b: w = (0, 0, Omega - b / gamma), z = 0 (docs/theory/lebedev.md)."""
     run = run_scenario(load_scenario("lebedev_gyro_bias"), None)
     scenario = load_scenario("lebedev_gyro_bias")
     _, sensor = scenario.stages["sensor"]

@@ -1,6 +1,6 @@
 """Every shipped scenario's metrics, pinned, each to a tolerance its round-off allows.
 
-A pin's tolerance class (tests/data/pin_classes.json) says how far it may move (README,
+A pin's tolerance class (tests/data/pin_classes.json) says how far it may move (docs/validation.md,
 "Testing: pinned numbers"): `bench/pin_spread.py` re-measures every pin under other
 floating-point kernels (chosen by hand in the shell) and puts each in the tightest class
 that allows 100 times the largest spread seen. A conserved quantity's drift, and any value

@@ -285,7 +285,7 @@ def test_no_preference_from_a_start_near_a_singular_set():
         np.testing.assert_array_equal(with_start.beta_rate, without.beta_rate)
 
 
-# ---- random slews outside the study's seed (bench/steering_study.py, README "Steering study") ---
+# ---- random slews outside the study's seed (bench/steering_study.py, docs/theory/steering.md "Steering study") ---
 
 OTHER_SEED, OTHER_SLEWS = 41, 5
 

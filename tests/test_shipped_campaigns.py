@@ -1,7 +1,7 @@
-"""The two campaigns of the README ("The two campaigns shipped"), a slice of each run for real:
-the first cases give the outcomes of the same cases in the full campaigns the README reports,
+"""The two campaigns of docs/campaigns.md ("The two campaigns shipped"), a slice of each run for real:
+the first cases give the outcomes of the same cases in the full campaigns the docs report,
 the two steering laws fly the same slews, and `--case N` reproduces its row bit for bit. The
-whole campaigns (200 cases each, tens of minutes) are run from the README's commands, not here."""
+whole campaigns (200 cases each, tens of minutes) are run from the docs' commands, not here."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The steering study (bench/steering_study.py): its slews are what its docstring and the README
+"""The steering study (bench/steering_study.py): its slews are what its docstring and docs/theory/steering.md
 say, and with its gimbal limits (--limits) every law honours them on study slews (violations = 0)."""
 
 from __future__ import annotations
@@ -96,7 +96,7 @@ def test_every_law_honours_the_study_limits_on_study_slews():
 
 def test_study_table_counts_and_medians_from_rows_written_and_read_back(tmp_path):
     """Six hand-made rows (two laws, three slews) through write_csv and read_rows: the counts,
-    medians, maxima and per-slew ratios the README's tables show, worked out by hand."""
+    medians, maxima and per-slew ratios the docs' tables show, worked out by hand."""
     module = study()
     rows = []
     for slew, (m_pinv, m_minimax, rate_pinv, rate_minimax) in enumerate(

@@ -12,7 +12,7 @@ estimate of x = w - (0, 0, Omega), eq. 4.1) and the momentum H an internal actua
   z' = A z + l_c (y - C z) + F(z) + u with u = M / I (eq. 4.6); ideal torques act on the
   body directly, I w' = M - w x I w; an internal actuator that compensates w x H with the
   estimate delivers H' = -(M + w_hat x H) (SEEDS §004 eq. 14), so the bus feels
-  I w' = M - w x I w + (w_hat - w) x H (README "One gyro, no attitude sensor").
+  I w' = M - w x I w + (w_hat - w) x H (docs/theory/lebedev.md "One gyro, no attitude sensor").
 
 y = p . w + b is the ideal gyro (plus a constant bias b), taken continuously. The observer's
 model and gain may follow the momentum held (`momentum_gain: measured`): the observer's own

@@ -1,6 +1,6 @@
 """Whether the actuators can hold and turn the momentum a Lebedev spin-up ends with.
 
-Our extension of Lebedev (1976) to a body whose actuators hold momentum H (README "Non-zero
+Our extension of Lebedev (1976) to a body whose actuators hold momentum H (docs/theory/lebedev.md "Non-zero
 total momentum", "What the cluster cannot hold at the end spin"). The total momentum L = I w + H is fixed in
 inertial space and keeps its length. At the wanted spin w = Omega e_z it makes an angle theta with
 body z and turns in the body at -Omega about z, so the actuators must hold, for every phase phi,
@@ -15,7 +15,7 @@ gimbal rates up to beta'max are beta'max times the same set, so no gimbal state 
 whose gauge exceeds beta'max). A point of the circle with gauge > 1 is a momentum no actuator
 state holds, a torque with gauge > beta'max one none gives: the spin-up cannot end there. `check_end_momentum_held` refuses an L for which that is so at every
 angle theta the spin can end at: where the idle start-up leaves L (`idle_polar_angles` at the
-start-up's end) give or take CLOSED_LOOP_TILT_DEG, the closed loop's tilt (README); the most
+start-up's end) give or take CLOSED_LOOP_TILT_DEG, the closed loop's tilt (docs/theory/lebedev.md); the most
 favourable angle decides, so a refusal does not depend on where in that band the spin ends.
 """
 

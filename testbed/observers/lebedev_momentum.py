@@ -1,6 +1,6 @@
 """Which total angular momenta one gyro can observe a spinning CMG spacecraft with.
 
-Our extension of Lebedev (1976) to a body whose actuators hold momentum H (README "Non-zero
+Our extension of Lebedev (1976) to a body whose actuators hold momentum H (docs/theory/lebedev.md "Non-zero
 total momentum"). With H the observer error obeys e' = (A_H - l C) e, A_H = A + I^-1 [H x]
 (testbed.observers.lebedev_observer.gyrostat_error_matrix), so the gain exists iff the pair
 (A_H, C) is observable: det W(A_H) != 0, W = [C; C A_H; C A_H^2] (eq. 4.4 with A -> A_H).
@@ -25,7 +25,7 @@ z axis. The spin-up does not end in any attitude, though: L keeps its length, it
 z is where the idle start-up left it (the free gyrostat turns L in the body: `idle_polar_angles`)
 give or take the closed loop's few degrees, and at the end its transverse part turns with the
 body, sweeping a circle. `check_momentum_observable` asks for the observer's information on
-those circles (`end_state_information`); the measured tilts are in the README.
+those circles (`end_state_information`); the measured tilts are in docs/theory/lebedev.md.
 """
 
 from __future__ import annotations
@@ -40,11 +40,11 @@ from testbed.observers.lebedev_observer import gyrostat_error_matrix, gyrostat_j
 
 DIRECTIONS = 96   # polar angles of the direction grid (twice as many azimuths) for r*
 # How far the closed loop tilts the spin axis against L after the idle start-up has turned L in
-# the body (measured 0.2 to 2.2 deg on six runs: README), and the spacing of the angles searched.
+# the body (measured 0.2 to 2.2 deg on six runs: docs/theory/lebedev.md), and the spacing of the angles searched.
 CLOSED_LOOP_TILT_DEG = 5.0
 BAND_STEP_DEG = 2.5
 # least end-state information accepted, relative to the rigid body's: the gain l = Pi^-1 C may
-# grow about 10 times the paper's, whose noise amplification is already 13 (README "One gyro")
+# grow about 10 times the paper's, whose noise amplification is already 13 (docs/theory/lebedev.md "One gyro")
 MIN_INFORMATION = 0.1
 
 

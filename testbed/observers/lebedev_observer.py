@@ -193,7 +193,7 @@ def gyrostat_jacobian(moments, w, momentum) -> np.ndarray:
 
     At w = (0, 0, Omega) it is `gyrostat_error_matrix` (A + I^-1 [H x]). Once the loop is closed
     it is also the linearisation of the observer error: the body feels M - w x I w + H x e and
-    eq. 4.6 models M - w_hat x I w_hat, so e' = J(w_hat, H) e - l C e + O(e^2) (README
+    eq. 4.6 models M - w_hat x I w_hat, so e' = J(w_hat, H) e - l C e + O(e^2) (docs/theory/lebedev.md
     "Non-zero total momentum").
     """
     moments = np.asarray(moments, float)
@@ -235,7 +235,7 @@ class LebedevObserver:
     truth, t* = 150 s), max |w - (0,0,1)| deg/s at 700 s: continuous 7.6e-7; dt = 0.05 s
     1.2e-6; 0.1 s 2.7e-6; 0.2 s 4.9e-5; 0.25 s 4.4e-4; dt = 0.5 s diverges. The held y
     costs a deviation from the continuous loop first order in the period (0.32 deg/s at
-    0.05 s); interpolated, 0.0078 deg/s (README "One gyro", bench/bench_lebedev_rates.py).
+    0.05 s); interpolated, 0.0078 deg/s (docs/theory/lebedev.md "One gyro", bench/bench_lebedev_rates.py).
 
     State z estimates the deviation x = (wx, wy, wz - Omega); y is the raw gyro output
     p . w [rad/s]; the innovation uses y_dev = y - gamma Omega, since y = C x + gamma Omega.
@@ -252,7 +252,7 @@ class LebedevObserver:
         self.l_closed = self.l if design_momentum is None else ackermann_gain(
             gyrostat_error_matrix(self.inertia, self.spin_rate, design_momentum), self.C, poles)
         # measured_momentum: the model and the gain follow the momentum H the actuators report
-        # (README "Non-zero total momentum"); without it H is ignored, as in the paper
+        # (docs/theory/lebedev.md "Non-zero total momentum"); without it H is ignored, as in the paper
         self.measured_momentum = bool(measured_momentum)
         # the information filter's rate a: its steady poles for a torque-free spin sit 2a left of
         # eig(A) (testbed.math.information_filter), so half the slowest wanted rate
@@ -312,7 +312,7 @@ class LebedevObserver:
         Paper (eq. 3.1): z' = A z + l (y_dev - C z). With measured momentum H the model is the free
         gyrostat itself, z' = A_H z + d + F(z) (`startup_model`; exact, not linearised about the
         wanted spin the idle body is far from), and the gain is the information filter's for its
-        linearisation at the estimate (README "Non-zero total momentum"); the state is (z, Pi)."""
+        linearisation at the estimate (docs/theory/lebedev.md "Non-zero total momentum"); the state is (z, Pi)."""
         z = state[:3]
         matrix, drift = self.startup_model(momentum)
         if not self.measured_momentum or momentum is None:
@@ -322,7 +322,7 @@ class LebedevObserver:
     def closed_derivative(self, state, y_dev, u, momentum=None, compensated=None):
         """d/dt of the observer state once the loop is closed: z' = A z + l (y_dev - C z) + F(z) + u
         (Lebedev 1976, eq. 4.6), l the fixed `l_closed`, or with measured momentum H the information
-        filter's gain for J(w_hat, H), the linearisation of the error dynamics (README "Non-zero
+        filter's gain for J(w_hat, H), the linearisation of the error dynamics (docs/theory/lebedev.md "Non-zero
         total momentum"; the state is then (z, Pi)).
 
         `compensated` (measured momentum): the gyroscopic torque w_k x H_k [N m] the actuators were
@@ -353,7 +353,7 @@ class LebedevObserver:
         momentum the model has missed since the last sample (reset to the measurement error by
         this call), not to d'. So the decay bound V = eps' Pi eps, V' <= -2 a V
         (testbed.math.information_filter) holds for eps with the gain and Pi unchanged, forced by
-        a d that no longer accumulates (README "Non-zero total momentum")."""
+        a d that no longer accumulates (docs/theory/lebedev.md "Non-zero total momentum")."""
         self.z = self.z - (np.asarray(measured, float) - np.asarray(modelled, float)) / self.inertia
 
     def state(self, momentum=None) -> np.ndarray:

@@ -137,7 +137,7 @@ class LebedevObserverParams:
         "eig(A + I^-1 [H x] - l C); none: the paper's rigid body"))
     momentum_gain: Literal["fixed", "measured"] = param("fixed", doc=(
         "measured: the gains follow the momentum H the allocator reports (re-placed every period, "
-        "the start-up model includes H; README 'Non-zero total momentum'); fixed: design_momentum_nms or none"))
+        "the start-up model includes H; docs/theory/lebedev.md 'Non-zero total momentum'); fixed: design_momentum_nms or none"))
 
     def validate(self, path: str) -> None:
         with scenario_fields({"observer.poles": join(path, "poles_per_s")}):
@@ -241,7 +241,7 @@ class LebedevEstimator:
         return held + (self._t_prev - issued) * rate, rate, compensated
 
     def _step_measured(self, y_end, h, command) -> None:
-        """One interval of the measured-momentum observer (README "Non-zero total momentum"). The
+        """One interval of the measured-momentum observer (docs/theory/lebedev.md "Non-zero total momentum"). The
         model runs in w, but it stands for the total momentum in body axes L_b = I w_hat + H,
         whose motion L_b' = L_b x w holds whatever the cluster does: when the interval starts
         from a measured H that differs from the H the model reached, the estimate keeps L_b and

@@ -27,7 +27,7 @@ control step: commanded angles outside their range and commanded rate changes ab
 a_max Tc (1 + 1e-9, the rounding of the bounds), the peak commanded acceleration, and the
 measured angles' smallest distance to a stop. The measured angle follows the commanded one
 through the servo, whose stiffness gives way to the gyroscopic torque on the gimbal axis: it
-can pass a stop by that compliance (up to 0.006 deg on the 30 deg/s near-singular slew, README
+can pass a stop by that compliance (up to 0.006 deg on the 30 deg/s near-singular slew, docs/theory/steering.md
 "Gimbal limits").
 
 Near-singular default: singular values of J below STAGE_RCOND = 1e-2 of the largest count as

@@ -44,7 +44,7 @@ zero-momentum set. With b = H'/h (eq. 17):
    path then ends somewhere else on the zero-momentum set, which for the rhombus contains the
    two-dimensional singular family beta_1 = beta_3, beta_2 = beta_4 (two pairs cancelling,
    least_squares.py). The barrier sees m fall only in the slew's last seconds, where H' is
-   largest and the null motion it needs exceeds the rate limit (README "Steering study").
+   largest and the null motion it needs exceeds the rate limit (docs/theory/steering.md "Steering study").
 
 5. Preference. With beta^0 the gimbal angles the run started from (`preferred_gimbal_angles`),
    v^0 the null vector of J(beta^0) (`preferred_jacobian`; moving along it keeps H = H(beta^0)
@@ -89,7 +89,7 @@ zero-momentum set. With b = H'/h (eq. 17):
 
 Rank J < 3 (s_3 <= rcond s_1): the null space has dimension >= 2 and m is not differentiable
 there; the law then does what `minimax` does (least-squares projection, null-space LP) and
-says rank_deficient. README "Steering study" gives how often the law still comes within 1e-3 of
+says rank_deficient. docs/theory/steering.md "Steering study" gives how often the law still comes within 1e-3 of
 a singular set on random slews, and what the preference costs in peak rate.
 """
 

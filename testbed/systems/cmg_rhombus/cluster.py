@@ -147,6 +147,6 @@ class ClusterGeometry:
         momentum_gauge.py), and the direction u of the maximum (m, 3). The torques the cluster
         gives at gimbal rates up to beta'max are beta'max times the same set, so the gauge of a
         torque T [N m] is the least rate limit [rad/s] at which some gimbal state gives it. The neutral
-        interface through which a stage asks what the actuators can hold (README "Non-zero total
+        interface through which a stage asks what the actuators can hold (docs/theory/lebedev.md "Non-zero total
         momentum")."""
         return envelope_gauge(momenta, self.gimbal_axes, self.rotor_momentum)

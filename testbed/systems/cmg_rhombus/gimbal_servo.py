@@ -60,7 +60,7 @@ momentum; `bench/bench_frontier.py --sources` prints every number below):
   gimbal-axis inertia (4.5 times more: 2.9e-11) and as dt^4 (dt 0.005 s: 6.7e-12): RK4's
   error in the gyroscopic coupling of gimbals and bus.
 At dt = Tc = 0.01 s the feedforward servo with w_n = 5 rad/s thus drifts 2.4e-10 and tracks
-to 2.4e-5 of the amplitude (README, "The gimbal servo and the time step").
+to 2.4e-5 of the amplitude (docs/theory/gimbal-servo.md, "The gimbal servo and the time step").
 """
 
 from __future__ import annotations
