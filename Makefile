@@ -3,7 +3,7 @@
 PY := .venv/bin/python
 FLAGSHIP ?= lebedev_spinup_cmg
 
-.PHONY: run test test-fast bench docs
+.PHONY: run test test-fast fuzz bench docs
 run: .venv/.installed
 	$(PY) -m testbed run $(FLAGSHIP)
 
@@ -17,6 +17,10 @@ test-fast: .venv/.installed
 # The documentation site (mkdocs.yml, docs/) into site/; --strict: a broken link or reference fails.
 docs: .venv/.installed
 	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs build --strict -d site
+
+# The long hostile-input fuzz: 3000 examples instead of the suite's 600 (about 2 min).
+fuzz: .venv/.installed
+	TESTBED_FUZZ_EXAMPLES=3000 $(PY) -m pytest tests/test_fuzz.py
 
 bench: .venv/.installed
 	$(PY) bench/bench_pipeline.py

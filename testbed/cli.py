@@ -15,7 +15,7 @@ import warnings
 from pathlib import Path
 
 from testbed import api, live_view, sweep_cli, trace  # sweep_cli registers the `sweep` subcommand
-from testbed import init_command  # noqa: F401  (registers the `init` subcommand)
+from testbed import describe_command, init_command  # noqa: F401  (register `describe` and `init`)
 from testbed.commands import COMMANDS, reported
 from testbed.errors import InputError
 from testbed.interrupts import Terminated, signals_as_exceptions

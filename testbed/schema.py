@@ -165,11 +165,52 @@ def load(cls, data, path: str = ""):
     return obj
 
 
-def describe(cls, path: str = "") -> list[tuple[str, str, str]]:
-    """(field path, type, default) rows for documentation and `testbed schema`."""
+# The unit a key's name ends in (longest first), for `testbed describe` and the docs.
+UNIT_SUFFIXES = {
+    "_deg_s2": "deg/s^2", "_deg_s": "deg/s", "_deg": "deg", "_rad_s3": "rad/s^3", "_rad_s2": "rad/s^2",
+    "_rad_s": "rad/s", "_rad": "rad", "_nms_rad": "N m s/rad", "_nm_rad": "N m/rad", "_nms": "N m s",
+    "_nm": "N m", "_kg_m2": "kg m^2", "_kg": "kg", "_per_s": "1/s", "_1_s": "1/s", "_hz": "Hz",
+    "_rpm": "rpm", "_m": "m", "_s": "s",
+}
+
+
+def unit_of(name: str) -> str:
+    """The unit a key's name ends in ("" for a dimensionless key)."""
+    return next((UNIT_SUFFIXES[u] for u in sorted(UNIT_SUFFIXES, key=len, reverse=True) if name.endswith(u)), "")
+
+
+def bounds_of(name: str, meta: dict) -> str:
+    """The bounds `load` enforces on a field, as text: `>= 0, < 90`, a vector's length, a unit's range."""
+    words = [f"{word} {meta[key]:g}" for key, word in (("gt", ">"), ("ge", ">="), ("lt", "<"), ("le", "<="))
+             if meta.get(key) is not None]
+    if meta.get("length") is not None:
+        words.append(f"{meta['length']} elements")
+    suffix = next((u for u in sorted(UNIT_RANGES, key=len, reverse=True) if name.endswith(u)), None)
+    if suffix is not None:
+        low, high = UNIT_RANGES[suffix]
+        words.append(f"|x| in [{low:g}, {high:g}] or 0")
+    return ", ".join(words)
+
+
+def _shown_type(tp) -> str:
+    """A field's type as a reader writes it: `list[float]`, `float | None`, `one of 'a', 'b'`."""
+    origin, args = get_origin(tp), get_args(tp)
+    if origin in (typing.Union, types.UnionType):
+        return " | ".join(_shown_type(a) for a in args)
+    if origin in (list, dict):
+        return f"{origin.__name__}[{', '.join(_shown_type(a) for a in args)}]"
+    return "None" if tp is type(None) else _type_name(tp)
+
+
+def describe(cls, path: str = "") -> list[dict]:
+    """One row per field of schema dataclass `cls` (nested dataclasses flattened to dotted
+    paths): key, type, unit, default, bounds and meaning, from the same metadata `load`
+    validates with."""
     rows = []
     hints = typing.get_type_hints(cls)
     for f in dataclasses.fields(cls):
+        if not f.init:
+            continue
         tp = hints[f.name]
         fpath = join(path, f.name)
         if dataclasses.is_dataclass(tp):
@@ -181,7 +222,8 @@ def describe(cls, path: str = "") -> list[tuple[str, str, str]]:
             default = repr(f.default_factory())
         else:
             default = "required"
-        rows.append((fpath, _type_name(tp), default))
+        rows.append({"key": fpath, "type": _shown_type(tp), "unit": unit_of(f.name), "default": default,
+                     "bounds": bounds_of(f.name, dict(f.metadata)), "meaning": f.metadata.get("doc", "")})
     return rows
 
 

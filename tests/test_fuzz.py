@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import copy
 import math
+import os
 import shutil
 import signal
 import tempfile
@@ -292,9 +293,13 @@ def test_fuzz_mutated_scenarios_quick(case, fuzz_root, capfd):
     check_one(*case, fuzz_root, capfd)
 
 
+# The suite's share of the long fuzz; `make fuzz` runs 3000 (about 2 min on a quiet machine).
+LONG_EXAMPLES = int(os.environ.get("TESTBED_FUZZ_EXAMPLES", "600"))
+
+
 @pytest.mark.slow
-@pytest.mark.timeout(900)  # 3000 examples: about 2 min on a quiet machine, 5 under load
-@settings(max_examples=3000, **SETTINGS)
+@pytest.mark.timeout(max(300, LONG_EXAMPLES // 3))  # about 0.05 s an example, 5x that under load
+@settings(max_examples=LONG_EXAMPLES, **SETTINGS)
 @given(case=hostile_inputs(kinds=("replace", "extreme", "delete", "resize", "add_key", "non_mapping", "bytes", "set")
                            + ("perturb",) * 6))
 def test_fuzz_mutated_scenarios(case, fuzz_root, capfd):

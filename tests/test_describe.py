@@ -1,0 +1,97 @@
+"""`testbed describe`: it lists every registered entry with the parameters validation takes, and
+the bounds it prints are the ones validation enforces (testbed.schema.load refuses a value just
+past each one); the docs' Parameters page is its output."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from testbed import pipeline
+from testbed.cli import main
+from testbed.describe_command import as_markdown, entries
+from testbed.errors import InputError
+from testbed.plugins import discover
+from testbed.schema import load
+from testbed.systems_registry import SYSTEMS
+
+DOCS_PAGE = Path(__file__).resolve().parents[1] / "docs" / "parameters.md"
+
+
+def test_the_docs_parameters_page_is_describes_output():
+    assert DOCS_PAGE.read_text() == as_markdown(entries(builtin_only=True)), \
+        "regenerate: testbed describe --markdown > docs/parameters.md"
+
+
+def test_describe_stage_lists_every_registered_stage_with_every_field_of_its_schema(capsys):
+    discover()
+    assert main(["describe", "stage", "--json"]) == 0
+    listed = {(e["slot"], e["name"]): e for e in json.loads(capsys.readouterr().out)}
+    for slot in pipeline.SLOTS:
+        for name, (params_cls, _) in pipeline.STAGES[slot].items():
+            fields = [f.name for f in dataclasses.fields(params_cls) if f.init]
+            assert [row["key"] for row in listed.pop((slot, name))["parameters"]] == fields, (slot, name)
+    assert not listed
+
+
+def test_units_and_a_known_parameter_of_the_lebedev_observer(capsys):
+    assert main(["describe", "stage", "estimator.lebedev"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("stage lebedev (estimator): ")
+    assert "  reads: estimate(t, measurement, command)" in out
+    assert "  startup_s [s] (float, default required, >= 0): " in out
+    assert "  max_substep_s [s] (float, default 0.0001" not in out and "max_substep_s [s] (float, default 0.05, >= 0.0001)" in out
+
+
+BOUND = re.compile(r"(>=|>|<=|<) (-?[0-9.e+-]+)")
+
+
+def _just_past(op: str, bound: float) -> float:
+    step = max(abs(bound), 1.0) * 1e-6
+    return {">": bound, ">=": bound - step, "<": bound, "<=": bound + step}[op]
+
+
+@pytest.mark.parametrize("kind", ["system", "stage", "reference"])
+def test_every_printed_bound_is_one_validation_enforces(kind):
+    """For each scalar float field with a printed bound, of every schema that loads with its
+    defaults alone: a value just past the bound is refused naming that field (the bound the docs
+    show is the one that holds)."""
+    checked = 0
+    for entry in entries(kind):
+        params_cls = _params_class(entry)
+        if any(row["default"] == "required" for row in entry["parameters"] if row["key"] != "system"):
+            continue
+        for row in entry["parameters"]:
+            if "." in row["key"] or row["type"] != "float" or row["default"] == "required":
+                continue
+            for op, text in BOUND.findall(row["bounds"].split(" elements")[0].split("|x|")[0]):
+                data = {row["key"]: _just_past(op, float(text))}
+                if entry["kind"] == "system":
+                    data["system"] = entry["name"]
+                with pytest.raises(InputError) as refused:
+                    load(params_cls, data, "p")
+                assert refused.value.field == f"p.{row['key']}", (entry["name"], row, refused.value)
+                checked += 1
+    assert checked >= {"system": 20, "stage": 5, "reference": 0}[kind]  # 37 and 6 here: none may go missing
+
+
+def _params_class(entry: dict):
+    from testbed.references_registry import REFERENCES
+
+    if entry["kind"] == "system":
+        return SYSTEMS[entry["name"]].params
+    if entry["kind"] == "stage":
+        return pipeline.STAGES[entry["slot"]][entry["name"]][0]
+    return REFERENCES[entry["name"]].params
+
+
+@pytest.mark.parametrize(("argv", "field"), [(["describe", "bogus"], "describe"),
+                                              (["describe", "stage", "no_such_stage"], "describe")])
+def test_an_unknown_kind_or_name_is_bad_input(argv, field, capfd):
+    assert main(argv) == 2
+    out, err = capfd.readouterr()
+    assert out == "" and len(err.splitlines()) == 1 and err.startswith(f"error: {field}: ")
