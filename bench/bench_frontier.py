@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from testbed.runner import run_scenario
-from testbed.scenario import load_scenario
+from testbed.scenario.loading import load_scenario
 
 STEPS = (0.001, 0.002, 0.005, 0.01, 0.02)
 FEEDFORWARD_W_N = 5.0

@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 from testbed.runner import run_scenario
-from testbed.scenario import load_scenario
+from testbed.scenario.loading import load_scenario
 
 LAW_PERIODS = (0.025, 0.05, 0.0625, 0.1)
 DIVISIONS = (1, 2, 5, 10)

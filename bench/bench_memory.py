@@ -27,7 +27,7 @@ CHILD = """
 import json, resource, sys, tempfile, time
 from pathlib import Path
 from testbed.runner import run_scenario
-from testbed.scenario import load_scenario
+from testbed.scenario.loading import load_scenario
 name, overrides, write, connect = sys.argv[1], json.loads(sys.argv[2]), sys.argv[3] == "1", sys.argv[4]
 scenario = load_scenario(name, overrides)
 with tempfile.TemporaryDirectory() as tmp:
@@ -36,7 +36,7 @@ with tempfile.TemporaryDirectory() as tmp:
         import rerun as rr
         server = rr.RecordingStream("bench-sink")  # kept: the server lives as long as its stream
         url = server.serve_grpc(grpc_port=9897, server_memory_limit="64MB")
-        from testbed.live_view import ViewerStream
+        from testbed.recording.live_view import ViewerStream
         live = ViewerStream(url)
     t0, c0 = time.perf_counter(), time.process_time()
     result = run_scenario(scenario, Path(tmp) / "run.rrd" if write else None, live=live)

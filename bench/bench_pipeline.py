@@ -18,7 +18,7 @@ import mujoco
 
 from testbed.blas_threads import one_blas_thread
 from testbed.runner import prepare, run_scenario
-from testbed.scenario import load_scenario
+from testbed.scenario.loading import load_scenario
 
 
 def main() -> None:

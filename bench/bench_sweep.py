@@ -27,9 +27,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from testbed.campaign_engine import Engine
-from testbed.sweep_cli import load_cases
-from testbed.sweep_runner import run_case, run_cases
+from testbed.campaign.engine import Engine
+from testbed.cli.campaign import load_cases
+from testbed.campaign.rows import run_case, run_cases
 
 
 def same_numbers(a: list[dict], b: list[dict]) -> bool:

@@ -10,7 +10,7 @@ Omega = 1 deg/s) prints the three axial total momenta that are unobservable, the
 the ball of total momenta whose every state is observable at every instant, and the
 information the measured-momentum observer holds at the end of a spin with total momentum |L|
 at angle theta to the spin axis, relative to the rigid body's
-(testbed.observers.lebedev_momentum.end_state_information, no band: the circle itself); the
+(testbed.lebedev.momentum.end_state_information, no band: the circle itself); the
 load-time check refuses below MIN_INFORMATION at the angles the idle start-up takes L to, give or
 take CLOSED_LOOP_TILT_DEG.
 
@@ -20,7 +20,7 @@ overrides (another bus inertia, gyro axis), and prints one row per case (refused
 pass, or FAIL with the check that failed) and the counts. Alongside: the total momentum L,
 the largest cluster momentum the final spin needs |H_end| = |L - I Omega e_z| (the cluster
 holds at most 4 h = 300 N m s), `hold`: the largest share of what the cluster can hold that the
-end circle asks for with L where the idle start-up leaves it (testbed.observers.lebedev_end_momentum;
+end circle asks for with L where the idle start-up leaves it (testbed.lebedev.end_momentum;
 the load-time check refuses above 1 at every angle within CLOSED_LOOP_TILT_DEG of it), and the
 steering's least singularity measure in the run.
 
@@ -35,8 +35,8 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.observers.lebedev_end_momentum import end_momentum_demand
-from testbed.observers.lebedev_momentum import (
+from testbed.lebedev.end_momentum import end_momentum_demand
+from testbed.lebedev.momentum import (
     MIN_INFORMATION,
     axial_unobservable_momenta,
     end_state_information,
@@ -78,7 +78,7 @@ def startup_decay(args) -> None:
     from scipy.integrate import solve_ivp
 
     from testbed.runner import prepare
-    from testbed.scenario import load_scenario
+    from testbed.scenario.loading import load_scenario
 
     cases = [("shipped", []), ("[30, -20, 10, 60]", ["model.gimbal_angles_deg=[30, -20, 10, 60]"])]
     cases += [(g, [f"model.gimbal_angles_deg=[{g}]"]) for g in args.gimbals]
@@ -108,7 +108,7 @@ def startup_decay(args) -> None:
 def run_case(job):
     """(index, verdict, detail, figures) of one random stored momentum."""
     from testbed.runner import prepare, run_scenario
-    from testbed.scenario import load_scenario
+    from testbed.scenario.loading import load_scenario
 
     index, angles, overrides = job
     assignments = [f"model.gimbal_angles_deg=[{', '.join(f'{a:.6f}' for a in angles)}]", *overrides]

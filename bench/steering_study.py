@@ -31,12 +31,12 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from testbed.progress import advance_to, progress_bar
-from testbed.scenario import apply_override
-from testbed.shipped_files import SCENARIO_DIR
+from testbed.cli.progress import advance_to, progress_bar
+from testbed.scenario.loading import apply_override
+from testbed.scenario.shipped_files import SCENARIO_DIR
 from testbed.steering import STEERING_LAWS
-from testbed.sweep import Case
-from testbed.sweep_runner import run_cases
+from testbed.campaign.cases import Case
+from testbed.campaign.rows import run_cases
 
 BASE = "reorient_near_singular"
 SEED = 14

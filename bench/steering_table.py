@@ -10,7 +10,7 @@ with every steering allocator and prints a Markdown table of their metrics. Abou
 import argparse
 
 from testbed.runner import run_scenario
-from testbed.scenario import load_scenario
+from testbed.scenario.loading import load_scenario
 from testbed.steering import STEERING_LAWS
 
 COLUMNS = (("final_attitude_error_deg", "final att. error [deg]", ".2g"),

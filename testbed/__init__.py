@@ -15,10 +15,10 @@ from testbed.errors import InputError
 from testbed.metrics import metric
 from testbed.pipeline import Allocator, Estimator, Law, Sensor, StageContext, StageInfo, stage
 from testbed.plant import Plant
-from testbed.references_registry import reference
+from testbed.references.registry import reference
 from testbed.runner import RunData, RunResult
-from testbed.schema import param
-from testbed.systems_registry import system
+from testbed.scenario.schema import param
+from testbed.systems.registry import system
 
 __version__ = "0.1.0"
 

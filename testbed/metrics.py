@@ -12,10 +12,11 @@ from typing import Callable
 
 import numpy as np
 
-from testbed import pipeline, systems_registry
+from testbed import pipeline
+from testbed.systems.registry import is_free_flying
 from testbed.errors import InputError, described, error_line
-from testbed.interrupts import from_a_signal
-from testbed.reductions import First, Last, MaxDistanceFromFirst, MaxNorm
+from testbed.cli.interrupts import from_a_signal
+from testbed.recording.reductions import First, Last, MaxDistanceFromFirst, MaxNorm
 from testbed.registry import Registry
 
 
@@ -40,7 +41,7 @@ def metric(name: str, applies: Callable = lambda scenario: True, uses=None):
 
     `uses` says what the metric reads, so that a run keeps no more than that: signal keys whose
     whole history it reads as `run.recorder[key]` (with `run.recorder.time`), and running
-    reductions (`testbed.reductions`) it reads as `run.reduced(reduction)`, which need no
+    reductions (`testbed.recording.reductions`) it reads as `run.reduced(reduction)`, which need no
     history. `uses` may be a function of the scenario giving them (a reduction built from the
     scenario's parameters, e.g. a window that ends at the planned end of the run; the metric
     builds the same one from `run.scenario` to read it). None (the default) keeps every signal
@@ -131,7 +132,7 @@ def evaluate_checks(scenario, values: dict[str, float], why: dict[str, str] | No
 # --- metrics every free-flying system has ---------------------------------------------------
 
 def _free_flying(scenario) -> bool:
-    return systems_registry.is_free_flying(scenario)
+    return is_free_flying(scenario)
 
 
 def _conserves_momentum(scenario) -> bool:

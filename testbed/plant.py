@@ -1,7 +1,7 @@
 """The MuJoCo truth as the runner sees it: step, read true signals, apply commands.
 
 A `Plant` owns a compiled model and its `MjData`; the base class reads a free-flying bus
-through `testbed.free_bus.FreeBus`, and each system's plant (testbed/systems/<name>/) adds
+through `testbed.systems.free_bus.FreeBus`, and each system's plant (testbed/systems/<name>/) adds
 its own joints and actuators. Only the sensor stage and the trace read `truth()`;
 controllers get `actuator_state()` (what encoders and tachometers on the actuators report)
 and their own measurements.
@@ -16,7 +16,7 @@ import struct
 import mujoco
 import numpy as np
 
-from testbed.shipped_files import INTEGRATORS
+from testbed.scenario.shipped_files import INTEGRATORS
 
 INTEGRATOR_NAMES = {int(value): name for name, value in INTEGRATORS.items()}
 
@@ -155,7 +155,7 @@ class Plant:
     def derived_signals(self, recorder) -> dict[str, np.ndarray]:
         """Signals computed from the recorded truth (vectorised, off the loop), a chunk of samples
         at a time as the run goes: `recorder[key]` and `recorder.time` are the chunk's rows (a
-        `testbed.recorder.Chunk`), so each row must follow from the same row's values."""
+        `testbed.recording.recorder.Chunk`), so each row must follow from the same row's values."""
         return {}
 
     def actuator_state(self) -> dict[str, np.ndarray]:
@@ -176,7 +176,7 @@ class Plant:
 
     def applied(self) -> dict:
         """Scenario fields as this plant runs them, by dotted path, read back from the compiled
-        model and the state `initialise` left (testbed.readback compares them with what a
+        model and the state `initialise` left (testbed.campaign.applied_values compares them with what a
         campaign drew): the step and integrator, the initial rate and attitude of the bus, and
         what the bus read-outs add (`FreeBus.applied`). A system adds its own fields."""
         omega = self.omega()

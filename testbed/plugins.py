@@ -1,8 +1,9 @@
 """Where stages, systems, metrics and references come from: the package's own folders, installed
 plug-in packages, and the Python files or modules a scenario names.
 
-- Built-ins: every module of `testbed.stages` and every package of `testbed.systems`
-  (`discover()`), so a new stage file or system folder needs no edit to any shared file.
+- Built-ins: every module of every folder of `testbed` but the shared machinery (`testbed.stages`,
+  one folder per method, every package of `testbed.systems`: `discover()`), so a new stage
+  file, method folder or system folder needs no edit to any shared file.
 - Installed plug-ins: every entry point of the group `testbed.plugins` (a package declares
   `[project.entry-points."testbed.plugins"] name = "its_module"`), loaded by `discover()`.
 - Scenario plug-ins: `plugins: [my_laws.py, mylab.controllers]` in a scenario file: a file
@@ -27,11 +28,12 @@ from pathlib import Path
 
 from testbed import exit_guard
 from testbed.errors import InputError, described
-from testbed.interrupts import from_a_signal
+from testbed.cli.interrupts import from_a_signal
 from testbed.math.validation import existing_file
 from testbed.registry import DuplicateName, restore, snapshot
 
-BUILTIN_PACKAGES = ("testbed.stages", "testbed.systems")
+# the folders that register nothing; every other folder of testbed holds built-in plug-ins
+SHARED_PACKAGES = ("testbed.math", "testbed.campaign", "testbed.recording", "testbed.cli", "testbed.scenario")
 ENTRY_POINT_GROUP = "testbed.plugins"
 
 _discovered = False
@@ -43,9 +45,11 @@ def discover() -> None:
     global _discovered
     if _discovered:
         return
-    for package_name in BUILTIN_PACKAGES:
-        package = importlib.import_module(package_name)
-        for info in pkgutil.iter_modules(package.__path__, package_name + "."):
+    for folder in pkgutil.iter_modules(importlib.import_module("testbed").__path__, "testbed."):
+        if not folder.ispkg or folder.name in SHARED_PACKAGES:
+            continue
+        package = importlib.import_module(folder.name)
+        for info in pkgutil.iter_modules(package.__path__, folder.name + "."):
             importlib.import_module(info.name)
     _discovered = True
     for entry in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any, Iterator
 
-from testbed import schema
+from testbed.scenario import schema
 from testbed.errors import InputError, quoted
 
 

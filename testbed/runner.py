@@ -13,14 +13,17 @@ from pathlib import Path
 
 import numpy as np
 
-from testbed import metrics, references_registry, systems_registry, trace
+from testbed import metrics
+from testbed.recording import trace
+from testbed.references import registry as references_registry
+from testbed.systems import registry as systems_registry
 from testbed.blas_threads import one_blas_thread
 from testbed.errors import InputError, error_line, refused_as
 from testbed.exit_guard import os_exit_raises
 from testbed.pipeline import Pipeline, StageContext, StageFailed, params_dict, stage_infos
 from testbed.plant import SimulationDiverged
-from testbed.recorder import FLUSH_AFTER_S, Chunk, Recorder, Trace
-from testbed.reductions import Reductions
+from testbed.recording.recorder import FLUSH_AFTER_S, Chunk, Recorder, Trace
+from testbed.recording.reductions import Reductions
 
 
 @dataclass
@@ -123,7 +126,7 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     """Run `scenario`, stream the trace to `out` (None: no file) and evaluate its checks;
     `keep_data` keeps the whole trace and what the metrics saw in the result (otherwise only the
     signals the metrics need are kept: memory does not grow with the run for metrics that are
-    running reductions); `live`: a viewer (testbed.live_view.ViewerStream) the trace is also
+    running reductions); `live`: a viewer (testbed.recording.live_view.ViewerStream) the trace is also
     streamed to as it goes, never waited for; the file and the viewer get a chunk at least
     every FLUSH_AFTER_S of wall time; `progress(fraction)` is called about 200 times;
     `on_prepared(plant, pipeline)` sees the built plant and stages before the first step (a

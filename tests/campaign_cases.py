@@ -6,8 +6,8 @@ from __future__ import annotations
 import copy
 import math
 
-from testbed.scenario_yaml import read_yaml
-from testbed.shipped_files import SCENARIO_DIR
+from testbed.scenario.yaml_reading import read_yaml
+from testbed.scenario.shipped_files import SCENARIO_DIR
 
 
 def spinup(name: str, checks: dict, noise_rad_s: float | None = 1e-7) -> dict:
@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from testbed.pipeline import stage
-from testbed.schema import param
+from testbed.scenario.schema import param
 
 
 @dataclass(kw_only=True)

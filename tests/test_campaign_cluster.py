@@ -19,7 +19,7 @@ import pytest
 import yaml
 
 from campaign_cases import spinup
-from testbed.campaign_table import read_parquet
+from testbed.campaign.table import read_parquet
 from testbed.cli import main
 
 DASK = Path(sys.executable).with_name("dask")  # the CLI of the dask package, beside this Python

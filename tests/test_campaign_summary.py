@@ -16,8 +16,8 @@ import yaml
 from scipy import stats
 
 from campaign_cases import spinup
-from testbed.campaign_plots import TIMELINE, axis_scale
-from testbed.campaign_stats import check_margin, metric_spread, pass_rate, worst_cases
+from testbed.campaign.plots import TIMELINE, axis_scale
+from testbed.campaign.stats import check_margin, metric_spread, pass_rate, worst_cases
 from testbed.cli import main
 
 # The Lebedev one-gyro spin-up on a rigid bus, 20 s (the observer alone: the bus tumbles freely

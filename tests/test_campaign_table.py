@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from testbed.campaign_table import CampaignTable, merge_kinds, read_parquet
+from testbed.campaign.table import CampaignTable, merge_kinds, read_parquet
 from testbed.cli import main
 from testbed.errors import InputError
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from testbed.cli import main
-from testbed.shipped_files import SCENARIO_DIR
-from testbed.trace import read_rrd
+from testbed.scenario.shipped_files import SCENARIO_DIR
+from testbed.recording.trace import read_rrd
 
 SHORT_GYROSTAT = ["run", "gyrostat_free", "--set", "sim.duration_s=20", "--json"]
 
@@ -79,7 +79,7 @@ def test_divergence_inside_a_block_of_unchecked_ticks_names_the_window_that_hold
     (ticks of 0.5 s, a trace sample every 10 ticks), is reported in a window that contains
     13 s, and the trace stops at the last sample before it."""
     from testbed.runner import run_scenario
-    from testbed.scenario import load_scenario
+    from testbed.scenario.loading import load_scenario
 
     monkeypatch.chdir(tmp_path)  # MuJoCo writes its MUJOCO_LOG.TXT into the working directory
     scenario = load_scenario("torque_free_skylab", [

@@ -6,18 +6,18 @@ import numpy as np
 import pytest
 
 from testbed.errors import InputError
-from testbed.free_bus import FreeBus
+from testbed.systems.free_bus import FreeBus
 from testbed.plugins import discover
 from testbed.systems import cmg_rhombus, satellite
 from testbed.systems.cmg_rhombus import ClusterGeometry, CmgRhombus, CmgRhombusParams
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, ROTORS, rhombus_axes
-from testbed.systems_registry import load_params
+from testbed.systems.registry import load_params
 
 DT = 1e-3
 
 
 def load_scenario_with(overrides: dict):
-    from testbed.scenario import load_scenario
+    from testbed.scenario.loading import load_scenario
 
     return load_scenario("cmg_open_loop", [f"{k}={v}" for k, v in overrides.items()])
 
@@ -282,7 +282,7 @@ def test_cancel_initial_momentum_starts_a_zero_momentum_spacecraft(omega_deg_s):
     the angles are the flagship's own, computed for it by hand from H(b) = -I w(0) with the
     locked inertia (1250, 6900, 7100) kg m^2 (scenarios/lebedev_spinup_cmg.yaml)."""
     from testbed.runner import prepare
-    from testbed.scenario import load_scenario
+    from testbed.scenario.loading import load_scenario
 
     scenario = load_scenario("lebedev_spinup_cmg", ["model.cancel_initial_momentum=true",
                                                     f"initial.omega_deg_s={omega_deg_s}"])
@@ -299,7 +299,7 @@ def test_cancel_initial_momentum_starts_a_zero_momentum_spacecraft(omega_deg_s):
 def test_cancel_initial_momentum_beyond_the_envelope_is_refused():
     """|I w| = 7100 kg m^2 x 5 deg/s = 620 N m s along z: more than the 4 h = 300 N m s the cluster holds."""
     from testbed.runner import prepare
-    from testbed.scenario import load_scenario
+    from testbed.scenario.loading import load_scenario
 
     scenario = load_scenario("lebedev_spinup_cmg", ["model.cancel_initial_momentum=true", "initial.omega_deg_s=[0, 0, 5]"])
     with pytest.raises(InputError) as err:

@@ -10,8 +10,8 @@ import pytest
 
 from testbed.cli import main
 from testbed.pipeline import SLOTS
-from testbed.scenario_yaml import read_yaml
-from testbed.shipped_files import SCENARIO_DIR
+from testbed.scenario.yaml_reading import read_yaml
+from testbed.scenario.shipped_files import SCENARIO_DIR
 
 import yaml
 
@@ -53,7 +53,7 @@ CASES = [(system, slot, stage) for system in sorted(system_bases()) for slot in 
 def test_every_system_and_every_stage_type_are_covered():
     from testbed.pipeline import STAGES
     from testbed.plugins import discover
-    from testbed.systems_registry import SYSTEMS
+    from testbed.systems.registry import SYSTEMS
 
     discover()
     assert sorted(system_bases()) == [s for s in SYSTEMS.names() if not s.startswith("test")]

@@ -1,5 +1,5 @@
 """`testbed describe`: it lists every registered entry with the parameters validation takes, and
-the bounds it prints are the ones validation enforces (testbed.schema.load refuses a value just
+the bounds it prints are the ones validation enforces (testbed.scenario.schema.load refuses a value just
 past each one); the docs' Parameters page is its output."""
 
 from __future__ import annotations
@@ -13,11 +13,11 @@ import pytest
 
 from testbed import pipeline
 from testbed.cli import main
-from testbed.describe_command import as_markdown, entries
+from testbed.cli.describe import as_markdown, entries
 from testbed.errors import InputError
 from testbed.plugins import discover
-from testbed.schema import load
-from testbed.systems_registry import SYSTEMS
+from testbed.scenario.schema import load
+from testbed.systems.registry import SYSTEMS
 
 DOCS_PAGE = Path(__file__).resolve().parents[1] / "docs" / "parameters.md"
 
@@ -80,7 +80,7 @@ def test_every_printed_bound_is_one_validation_enforces(kind):
 
 
 def _params_class(entry: dict):
-    from testbed.references_registry import REFERENCES
+    from testbed.references.registry import REFERENCES
 
     if entry["kind"] == "system":
         return SYSTEMS[entry["name"]].params

@@ -16,11 +16,11 @@ import yaml
 
 from campaign_cases import same_cells, spinup
 from testbed.cli import main
-from testbed.dispersions import angle_deg
+from testbed.campaign.dispersions import angle_deg
 from testbed.errors import InputError
-from testbed.sweep import MAX_REFUSED_SHARE, expand
-from testbed.sweep_runner import run_case, run_cases
-from testbed.sweep_spec import MAX_CASES, assignments, case_seed, field_generator, load_spec
+from testbed.campaign.cases import MAX_REFUSED_SHARE, expand
+from testbed.campaign.rows import run_case, run_cases
+from testbed.campaign.spec import MAX_CASES, assignments, case_seed, field_generator, load_spec
 
 # The Lebedev one-gyro spin-up on a rigid bus, 20 s (tests/campaign_cases.py).
 GYRO = spinup("gyro_campaign", {"final_omega_rad_s": {"max": 1.0}})
@@ -35,7 +35,7 @@ EVERY_KIND = {
     "pipeline.sensor.axis": {"misalignment_deg": 0.5},
     "sim.integrator": {"choice": ["RK4", "Euler"]},
 }
-# A rest-to-rest slew of the same bus about a random axis (testbed/stages/slew.py).
+# A rest-to-rest slew of the same bus about a random axis (testbed/guidance/slew.py).
 SLEW = {
     "name": "slew_campaign",
     "model": {"system": "satellite", "inertia_kg_m2": [800, 1000, 1200]},
@@ -212,9 +212,9 @@ def test_every_dispersion_type_reaches_the_model_and_the_stages(data):
     """Each row's read-back values (the compiled model's bus mass and inertia, the initial rate
     in MuJoCo's state, the timestep's integrator, the gyro's axis and its noise generator's
     seed, the slew program's axis, angle and duration) equal the drawn values."""
-    from testbed.readback import applied_values
+    from testbed.campaign.applied_values import applied_values
     from testbed.runner import prepare
-    from testbed.scenario import parse
+    from testbed.scenario.loading import parse
 
     cases = expand(data)
     rows = run_cases(cases, workers=1)
@@ -237,11 +237,11 @@ def test_a_value_that_does_not_reach_the_model_is_refused(tmp_path):
     the compiled model's bus inertia differs from the drawn one, so the campaign is refused."""
     (tmp_path / "forgetful.py").write_text('''
 from dataclasses import dataclass
-from testbed.free_bus import FreeBus
+from testbed.systems.free_bus import FreeBus
 from testbed.plant import Plant
-from testbed.schema import param
-from testbed.shipped_files import load_spec
-from testbed.systems_registry import system
+from testbed.scenario.schema import param
+from testbed.scenario.shipped_files import load_spec
+from testbed.systems.registry import system
 
 
 @dataclass(kw_only=True)
@@ -342,7 +342,7 @@ def test_an_output_folder_that_cannot_be_written_is_refused_first(tmp_path, caps
 def test_the_shipped_campaigns_build_and_read_back(name, count):
     """The campaigns of docs/campaigns.md: their case count, and a few cases each built as they will run,
     every dispersed value found again in the built model and stages."""
-    from testbed.sweep_cli import load_cases
+    from testbed.cli.campaign import load_cases
 
     _, data, cases = load_cases(name, [], [0, count // 2 + 1, count - 1])
     assert load_spec(data["sweep"]).count == count

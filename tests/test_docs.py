@@ -54,7 +54,7 @@ def test_the_site_builds_strict_with_its_api_reference(tmp_path):
     assert done.returncode == 0, done.stderr[-4000:]
     reference = (tmp_path / "site" / "reference" / "index.html").read_text(encoding="utf-8")
     for name in ("testbed.api.run", "testbed.runner.RunResult", "testbed.pipeline.Law", "testbed.pipeline.StageContext",
-                 "testbed.systems_registry.system", "testbed.plugins.load_plugins", "testbed.errors.InputError"):
+                 "testbed.systems.registry.system", "testbed.plugins.load_plugins", "testbed.errors.InputError"):
         assert f'id="{name}"' in reference, name
     pages = {p.relative_to(ROOT / "docs").with_suffix("").as_posix() for p in (ROOT / "docs").rglob("*.md")}
     built = {p.parent.relative_to(tmp_path / "site").as_posix() for p in (tmp_path / "site").rglob("index.html")}

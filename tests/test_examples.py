@@ -25,7 +25,7 @@ import pytest
 import testbed
 from testbed.cli import main
 from testbed.math.quaternion import quat_angle, quat_conj, quat_from_axis_angle, quat_mul, rotation_vector
-from testbed.systems_registry import make_plant
+from testbed.systems.registry import make_plant
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"

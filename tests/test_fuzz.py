@@ -39,8 +39,8 @@ from hypothesis import strategies as st
 
 import testbed
 from testbed.cli import main
-from testbed.scenario_yaml import read_yaml
-from testbed.shipped_files import SCENARIO_DIR
+from testbed.scenario.yaml_reading import read_yaml
+from testbed.scenario.shipped_files import SCENARIO_DIR
 
 SCENARIOS = {path.stem: read_yaml(path) for path in sorted(SCENARIO_DIR.glob("*.yaml"))}
 NAMES = sorted(SCENARIOS)

@@ -12,8 +12,8 @@ import pytest
 
 from testbed.errors import InputError
 from testbed.runner import run_scenario
-from testbed.scenario import load_scenario
-from testbed.shipped_files import SCENARIO_DIR
+from testbed.scenario.loading import load_scenario
+from testbed.scenario.shipped_files import SCENARIO_DIR
 from testbed.steering import STEERING_LAWS, steer
 from testbed.steering.gimbal_limits import GimbalLimits, stopping_rate
 from rhombus_reference import rhombus_column_derivative, rhombus_jacobian

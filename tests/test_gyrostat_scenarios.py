@@ -10,7 +10,7 @@ from scipy.integrate import solve_ivp
 
 from testbed.cli import main
 from testbed.runner import run_scenario
-from testbed.scenario import load_scenario
+from testbed.scenario.loading import load_scenario
 
 # --- seed 002: analytic model of the worked example (all inertias about O, carrier axes) ----
 ROD = 5.0 / 48.0                                  # thin rod 5 kg, 0.5 m: m l^2 / 12

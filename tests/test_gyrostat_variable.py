@@ -7,8 +7,8 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
-from testbed import schema
-from testbed.shipped_files import MODELS_DIR
+from testbed.scenario import schema
+from testbed.scenario.shipped_files import MODELS_DIR
 from testbed.systems.gyrostat_variable import model as gv
 from testbed.systems.gyrostat_variable.plant import VariableGyrostatPlant
 from testbed.errors import InputError

@@ -33,10 +33,10 @@ import pytest
 import yaml
 
 import testbed
-import testbed.scenario
-import testbed.shipped_files
+import testbed.scenario.loading
+import testbed.scenario.shipped_files
 from testbed.cli import main
-from testbed.shipped_files import SCENARIO_DIR
+from testbed.scenario.shipped_files import SCENARIO_DIR
 
 # Keeps shipped scenarios short where only the handling of the input matters.
 SHORT = "sim.duration_s=0.5"
@@ -117,7 +117,7 @@ def assert_ran(result: Outcome, out: Path, codes=(0, 1)) -> dict:
 
 
 def read_yaml_of(path: Path) -> dict:
-    from testbed.scenario_yaml import read_yaml
+    from testbed.scenario.yaml_reading import read_yaml
 
     return read_yaml(path)
 
@@ -182,8 +182,8 @@ def test_list_survives_a_non_utf8_file_in_the_scenario_folder(cli, tmp_path, mon
     shutil.copytree(SCENARIO_DIR, folder)
     (folder / "latin1.yaml").write_bytes(LATIN1)
     (folder / "random_bytes.yaml").write_bytes(bytes(range(256)) * 4)
-    monkeypatch.setattr(testbed.shipped_files, "SCENARIO_DIR", folder)
-    monkeypatch.setattr(testbed.scenario, "SCENARIO_DIR", folder)
+    monkeypatch.setattr(testbed.scenario.shipped_files, "SCENARIO_DIR", folder)
+    monkeypatch.setattr(testbed.scenario.loading, "SCENARIO_DIR", folder)
     result = cli("list")
     assert result.code == 0, result.err
     assert result.err == ""
@@ -404,7 +404,7 @@ def test_model_and_initial_vectors_of_the_wrong_length(cli, path, value):
 def _mass_property_cases():
     """(scenario, model field, YAML value) for every mass or inertia field of every system."""
     from testbed.plugins import discover
-    from testbed.systems_registry import SYSTEMS
+    from testbed.systems.registry import SYSTEMS
 
     discover()
     one_per_system = {}
@@ -1188,9 +1188,9 @@ def test_interrupt_at_each_step_of_the_trace_write(cli, monkeypatch, where, inte
     interrupted once, a second call of it (the clean-up's) works."""
     import rerun as rr
 
-    import testbed.interrupts
+    import testbed.cli.interrupts
 
-    exc = KeyboardInterrupt if interrupt == "KeyboardInterrupt" else testbed.interrupts.Terminated
+    exc = KeyboardInterrupt if interrupt == "KeyboardInterrupt" else testbed.cli.interrupts.Terminated
     owner = rr if where == "RecordingStream" else rr.RecordingStream
     original, calls = getattr(owner, where), []
 
@@ -1296,7 +1296,7 @@ class _SignalsWhenCollected:
 def test_a_signal_inside_a_finalizer_is_raised_after_it():
     """In process: the handler, run inside a __del__, does not raise there (Python would drop it)
     but repeats the signal a moment later, outside, where it raises KeyboardInterrupt."""
-    from testbed.interrupts import signals_as_exceptions
+    from testbed.cli.interrupts import signals_as_exceptions
 
     with pytest.raises(KeyboardInterrupt), signals_as_exceptions():
         _SignalsWhenCollected()
@@ -1306,7 +1306,7 @@ def test_a_signal_inside_a_finalizer_is_raised_after_it():
 def test_a_repeat_after_the_block_has_ended_is_dropped():
     """The repeat of a signal handled inside a finalizer just before the block ends would land
     outside it, under the default handler: it is not sent."""
-    from testbed.interrupts import REDELIVERY_DELAY_S, signals_as_exceptions
+    from testbed.cli.interrupts import REDELIVERY_DELAY_S, signals_as_exceptions
 
     with signals_as_exceptions():
         _SignalsWhenCollected()
@@ -1316,7 +1316,7 @@ def test_a_repeat_after_the_block_has_ended_is_dropped():
 def test_a_signal_ignored_at_start_stays_ignored():
     """`nohup testbed run ...` or a background job of a non-interactive shell starts with SIGINT
     ignored: the command line's handlers must not make such a run stoppable by it."""
-    from testbed.interrupts import signals_as_exceptions
+    from testbed.cli.interrupts import signals_as_exceptions
 
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:

@@ -15,7 +15,7 @@ import yaml
 
 from test_hostile_input import assert_refused, cli  # noqa: F401  (cli: the in-process command fixture)
 from test_sweep import BASE
-from testbed.campaign_table import read_parquet
+from testbed.campaign.table import read_parquet
 from testbed.cli import main
 
 TABLE = "mini_sweep.csv"  # BASE's name

@@ -44,7 +44,7 @@ def test_the_package_links_to_the_top_level_models_and_scenarios():
 
 
 def test_list_without_scenario_files_is_bad_input(tmp_path, monkeypatch, capsys):
-    from testbed import shipped_files
+    from testbed.scenario import shipped_files
     from testbed.cli import main
 
     monkeypatch.setattr(shipped_files, "SCENARIO_DIR", tmp_path)
@@ -87,7 +87,7 @@ def test_the_wheel_carries_the_models_the_scenarios_and_every_module(installed):
 @pytest.mark.slow
 def test_the_installed_package_is_the_wheel_not_the_checkout(installed):
     _, target, work = installed
-    probe = ("import testbed, testbed.shipped_files as s; "
+    probe = ("import testbed, testbed.scenario.shipped_files as s; "
              "print(testbed.__file__); print(s.MODELS_DIR); print(s.SCENARIO_DIR)")
     done = _in_install(target, work, sys.executable, "-c", probe)
     assert done.returncode == 0, done.stderr

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from testbed import schema
+from testbed.scenario import schema
 from testbed.systems.gyrostat_pair import model as gp
 from testbed.systems.gyrostat_pair.plant import GyrostatPairPlant
 from testbed.errors import InputError

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from testbed.cli import main
-from testbed.observers.lebedev_end_momentum import CIRCLE_POINTS, check_end_momentum_held, end_momentum_demand
-from testbed.observers.lebedev_momentum import idle_polar_angles
+from testbed.lebedev.end_momentum import CIRCLE_POINTS, check_end_momentum_held, end_momentum_demand
+from testbed.lebedev.momentum import idle_polar_angles
 from testbed.systems.cmg_rhombus.momentum_envelope import rhombus_gimbal_axes
 from testbed.systems.cmg_rhombus.momentum_gauge import envelope_gauge
 from testbed.errors import InputError
@@ -71,7 +71,7 @@ def test_a_stored_momentum_near_the_envelope_is_accepted():
     """Bench seed 16, case 6 (|L| = 159 N m s at 154 deg; it passes the scenario's checks, slow test
     in test_lebedev_momentum.py): its end circle asks 0.96-0.97 of the envelope, and it loads."""
     from testbed.runner import prepare
-    from testbed.scenario import load_scenario
+    from testbed.scenario.loading import load_scenario
 
     scenario = load_scenario("lebedev_spinup_cmg_momentum",
                              ["model.gimbal_angles_deg=[-130.0581, -41.4931, 96.9894, -31.1042]"])
@@ -100,7 +100,7 @@ def test_a_system_without_momentum_gauge_is_not_checked(monkeypatch):
     """The stage asks the plant's description; without `momentum_gauge` the stored momentum that
     test_a_stored_momentum_beyond_the_envelope_is_refused_at_load refuses is accepted."""
     from testbed.runner import prepare
-    from testbed.scenario import load_scenario
+    from testbed.scenario.loading import load_scenario
     from testbed.systems.cmg_rhombus.cluster import ClusterGeometry
 
     monkeypatch.delattr(ClusterGeometry, "momentum_gauge")
@@ -120,9 +120,9 @@ def test_the_refused_stored_momentum_run_anyway_misses_the_spin(monkeypatch, cap
     """What the refusal spares: REFUSED_GIMBALS is refused at load (1.08 times what the cluster
     holds), and flown with the check bypassed the spin ends more than 0.1 deg/s off, the steering
     near the cluster's singular sets (least sqrt(det J J^T) below 1e-3)."""
-    import testbed.stages.lebedev as lebedev_stage
+    import testbed.lebedev.stage as lebedev_stage
     from testbed.runner import run_scenario
-    from testbed.scenario import load_scenario
+    from testbed.scenario.loading import load_scenario
 
     assert main(["run", "lebedev_spinup_cmg_momentum", "--set", f"model.gimbal_angles_deg={REFUSED_GIMBALS}"]) == 2
     assert "1.08 times what they can hold" in capsys.readouterr().err

@@ -3,7 +3,7 @@
 Independent numbers: Euler's equations of the free gyrostat (the start-up model must be their
 exact linear part), numpy's eigenvalues (the scheduled gain must place the poles), numerical
 determinants on random bodies, gyro axes and momenta (the axial closed form and the radius r*
-derived in testbed/observers/lebedev_momentum.py), and Lebedev's eq. 4.5 for H = 0.
+derived in testbed/lebedev/momentum.py), and Lebedev's eq. 4.5 for H = 0.
 """
 
 import numpy as np
@@ -12,7 +12,7 @@ import pytest
 from testbed.cli import main
 from testbed.errors import InputError
 from testbed.math.information_filter import filter_gain, gathered_information, information_rate
-from testbed.observers.lebedev_momentum import (
+from testbed.lebedev.momentum import (
     CLOSED_LOOP_TILT_DEG,
     axial_unobservable_momenta,
     end_state_information,
@@ -20,7 +20,7 @@ from testbed.observers.lebedev_momentum import (
     observability_determinant,
     observable_momentum_radius,
 )
-from testbed.observers.lebedev_observer import (
+from testbed.lebedev.observer import (
     LebedevObserver,
     gyrostat_error_matrix,
     gyrostat_jacobian,
@@ -197,7 +197,7 @@ def test_stored_momentum_scenario_spins_up_from_one_gyro():
     L's angle to body z at the end lies within the load-time check's band: the range the idle
     start-up sweeps (solved independently of the run) widened by CLOSED_LOOP_TILT_DEG."""
     from testbed.runner import prepare, run_scenario
-    from testbed.scenario import load_scenario
+    from testbed.scenario.loading import load_scenario
 
     scenario = load_scenario("lebedev_spinup_cmg_momentum")
     run = run_scenario(scenario, None, keep_data=True)
@@ -232,7 +232,7 @@ def test_stored_momenta_not_shipped_pass_the_scenario_checks(gimbal_angles_deg, 
     """Off-repo stored momenta the load-time check accepts: the scenario's own check bounds on
     the spin and estimation errors hold, and the estimate has converged when control starts."""
     from testbed.runner import run_scenario
-    from testbed.scenario import load_scenario
+    from testbed.scenario.loading import load_scenario
 
     scenario = load_scenario("lebedev_spinup_cmg_momentum",
                              [f"model.gimbal_angles_deg=[{', '.join(map(str, gimbal_angles_deg))}]", *overrides])
@@ -253,7 +253,7 @@ def _estimate_under_exchange(jump, exchange_rate, reanchor: bool, duration=160.0
     substeps a period); the stage gets y = p . w and the H measured at each sample.
     `reanchor` False: the same observer without LebedevObserver.hold_total_momentum (before)."""
     from testbed.runner import prepare
-    from testbed.scenario import load_scenario
+    from testbed.scenario.loading import load_scenario
 
     scenario = load_scenario("lebedev_spinup_cmg_momentum", ["pipeline.estimator.startup_s=0.05"])
     _, pipeline, _ = prepare(scenario)

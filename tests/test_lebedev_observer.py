@@ -6,7 +6,7 @@ from scipy.integrate import solve_ivp
 from scipy.signal import place_poles
 
 from testbed.errors import InputError
-from testbed.observers.lebedev_observer import (
+from testbed.lebedev.observer import (
     LebedevObserver,
     check_gains,
     check_observable,
@@ -200,7 +200,7 @@ def test_sampled_stages_on_paper_example():
     # driven by an independent RK4 integration of Euler's equations as the truth.
     from testbed.pipeline import build
     from testbed.runner import stage_context
-    from testbed.scenario import load_scenario
+    from testbed.scenario.loading import load_scenario
 
     dt = 0.1
     scenario = load_scenario("lebedev_spinup_ideal", [f"sim.dt_s={dt}", f"sim.control_period_s={dt}",

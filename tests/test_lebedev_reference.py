@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from testbed.errors import InputError
-from testbed.observers.lebedev_continuous import closed_loop_states
+from testbed.lebedev.continuous import closed_loop_states
 from testbed.references.torque_free import torque_free_omega
 from testbed.runner import prepare, run_scenario
-from testbed.scenario import load_scenario
-from testbed.stages.lebedev import LebedevEstimator
+from testbed.scenario.loading import load_scenario
+from testbed.lebedev.stage import LebedevEstimator
 from test_lebedev_stages import _paper_loop_continuous
 
 DEG = np.pi / 180

@@ -12,7 +12,7 @@ from scipy.integrate import solve_ivp
 
 from testbed.cli import main
 from testbed.runner import prepare, run_scenario
-from testbed.scenario import load_scenario
+from testbed.scenario.loading import load_scenario
 from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel
 
 SKYLAB = np.array([1.25e6, 6.9e6, 7.1e6])
@@ -135,7 +135,7 @@ def test_estimator_sees_only_the_gyro_and_its_error_follows_the_observer(spinup)
     """Would fail if the controller were handed the truth: the estimator gets y and stamp only,
     and its start-up estimate equals an independent continuous simulation of body + observer
     (3.1) fed with p . w, not the true rate."""
-    from testbed.recorder import Recorder
+    from testbed.recording.recorder import Recorder
     from testbed.runner import _loop
 
     scenario = load_scenario("lebedev_spinup_ideal", HELD_Y + ["sim.duration_s=1"])

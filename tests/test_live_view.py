@@ -1,4 +1,4 @@
-"""`--view` and `--connect` open or refuse, never hang (testbed.live_view): each case ends
+"""`--view` and `--connect` open or refuse, never hang (testbed.recording.live_view): each case ends
 within 60 s, SIGTERM ends a streamed run at once, and nothing half-written is left."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from testbed.live_view import PROBE_S, grpc_silence
+from testbed.recording.live_view import PROBE_S, grpc_silence
 
 RUN = ["run", "torque_free_tumble", "--set", "sim.duration_s=5"]
 BOUND_S = 60.0  # the issue's bound on every case here
@@ -94,7 +94,7 @@ def test_view_with_no_display_is_refused_before_the_run(tmp_path):
 
 def test_view_whose_viewer_cannot_start_is_refused(tmp_path, monkeypatch, capsys):
     """A display but no viewer executable: refused, one line, before anything is written."""
-    import testbed.live_view as live_view
+    import testbed.recording.live_view as live_view
     from testbed.cli import main
 
     monkeypatch.setenv("DISPLAY", ":0")

@@ -21,8 +21,8 @@ from pathlib import Path
 import pytest
 
 from testbed.runner import run_scenario
-from testbed.scenario import load_scenario
-from testbed.shipped_files import SCENARIO_DIR
+from testbed.scenario.loading import load_scenario
+from testbed.scenario.shipped_files import SCENARIO_DIR
 
 PINNED = Path(__file__).with_name("data") / "pinned_metrics.json"
 CLASSES = Path(__file__).with_name("data") / "pin_classes.json"

@@ -11,7 +11,7 @@ import pytest
 
 from testbed.errors import InputError
 from testbed.runner import run_scenario
-from testbed.scenario import load_scenario
+from testbed.scenario.loading import load_scenario
 from test_lebedev_reference import OTHER_CASE
 
 

@@ -8,7 +8,7 @@ from scipy.integrate import solve_ivp
 from testbed.systems.planar import figures as fig
 from testbed.cli import main
 from testbed.runner import run_scenario
-from testbed.scenario import load_scenario
+from testbed.scenario.loading import load_scenario
 
 SQ3 = np.sqrt(3.0)
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from testbed import schema
+from testbed.scenario import schema
 from testbed.errors import InputError
 from testbed.pipeline import StageContext
 from testbed.stages.rate_gyro import RateGyro, RateGyroParams

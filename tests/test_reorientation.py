@@ -9,9 +9,9 @@ import pytest
 from testbed.runner import stage_context
 from testbed.math.quaternion import quat_angle, quat_conj, quat_from_axis_angle, quat_mul
 from testbed.runner import run_scenario
-from testbed.scenario import load_scenario
+from testbed.scenario.loading import load_scenario
 from testbed.stages.attitude_sensor import IdealAttitude, IdealAttitudeParams
-from testbed.stages.slew import Slew, SlewParams
+from testbed.guidance.slew import Slew, SlewParams
 from testbed.steering import pinv_steering
 from rhombus_reference import rhombus_jacobian
 
@@ -213,7 +213,7 @@ def test_the_slew_target_past_the_end_spins_on_at_the_final_rate():
     """The target the metric measures against, from the scenario's numbers, equals the program
     (a second construction, SEEDS §004 eq. 5-13) at rest before the slew ends and, past its end,
     q0 ∘ (axis, angle) turned at the final body rate: q(t) = qT ∘ (w/|w|, |w| (t - start - T))."""
-    from testbed.stages.slew import slew_target
+    from testbed.guidance.slew import slew_target
 
     wT = [0.0, 0.3, 0.2]
     law, _ = _slew(final_rate_deg_s=wT)

@@ -263,7 +263,7 @@ def test_the_guard_catches_each_kind_of_loosening():
 @pytest.mark.parametrize("name", sorted(PINNED))
 def test_the_runner_enforces_the_yaml_bounds(name):
     """What the scenario loader hands the runner is what this file read from the YAML."""
-    from testbed.scenario import load_scenario
+    from testbed.scenario.loading import load_scenario
 
     loaded = load_scenario(name).checks
     assert sorted(loaded) == sorted(yaml_checks(name))

@@ -4,7 +4,7 @@ import pytest
 
 from testbed.cli import main
 from testbed.errors import InputError
-from testbed.scenario import apply_override, load_scenario, parse
+from testbed.scenario.loading import apply_override, load_scenario, parse
 
 BASE = {
     "name": "t",

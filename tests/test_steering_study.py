@@ -11,7 +11,7 @@ import pytest
 from scipy import stats
 
 from testbed.guidance.program_trajectory import ProgramTrajectory
-from testbed.scenario import parse
+from testbed.scenario.loading import parse
 from testbed.steering import STEERING_LAWS
 from testbed.systems.cmg_rhombus.cluster import ClusterGeometry, rhombus_axes
 

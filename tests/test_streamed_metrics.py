@@ -5,7 +5,7 @@ Streamed: the run as `testbed run` makes it (only the signals the metrics declar
 in chunks of CHUNK so that every window and phase boundary falls inside some chunk. Whole
 history: the same scenario with keep_data=True, each running reduction replaced by the numpy
 expression its docstring gives, evaluated over the whole recorded history at once
-(`whole_history_value`), a second method that shares no code with testbed.reductions (a
+(`whole_history_value`), a second method that shares no code with testbed.recording.reductions (a
 system's own reduction, the CMG servo tracking peaks, is fed the whole history as one chunk).
 """
 
@@ -19,11 +19,12 @@ import numpy as np
 import pytest
 
 import testbed.runner
-from testbed import metrics, reductions
-from testbed.recorder import Chunk, Recorder
+from testbed import metrics
+from testbed.recording import reductions
+from testbed.recording.recorder import Chunk, Recorder
 from testbed.runner import run_scenario
-from testbed.scenario import load_scenario
-from testbed.shipped_files import SCENARIO_DIR
+from testbed.scenario.loading import load_scenario
+from testbed.scenario.shipped_files import SCENARIO_DIR
 
 CHUNK = 61  # samples a chunk: prime, so chunk edges fall everywhere
 RTOL = 1e-12

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import yaml
 
-from testbed.recorder import CHUNK_ROWS, FLUSH_AFTER_S
+from testbed.recording.recorder import CHUNK_ROWS, FLUSH_AFTER_S
 
 ROOT = Path(__file__).resolve().parents[1]
 KILL_AT_S = 30.0
@@ -94,7 +94,7 @@ def test_the_partial_trace_holds_the_true_samples(killed_run):
     """The signals read back from the killed run equal a complete run of the same scenario
     stopped before the kill, sample for sample."""
     import testbed
-    from testbed.trace import read_signals
+    from testbed.recording.trace import read_signals
 
     folder, _ = killed_run
     partial = next((folder / "out").glob(".killed.rrd.*.partial"))
@@ -159,9 +159,9 @@ def test_a_live_sink_receives_the_run_in_chunks_before_it_ends(receiver, tmp_pat
     import warnings
 
     from testbed.cli import main
-    from testbed.live_view import ViewerStream
+    from testbed.recording.live_view import ViewerStream
     from testbed.runner import run_scenario
-    from testbed.scenario import load_scenario
+    from testbed.scenario.loading import load_scenario
 
     url, received = receiver
     scenario = load_scenario("torque_free_tumble", ["sim.duration_s=120", "sim.control_period_s=0.01",
@@ -202,8 +202,8 @@ def test_a_malformed_connect_url_is_bad_input(tmp_path, capsys):
 def test_running_reductions_equal_the_whole_history_expressions():
     """Fed in chunks of random sizes, each reduction gives exactly the numpy expression over the
     whole history (NaN rows included where np.max propagates them)."""
-    from testbed.recorder import Chunk
-    from testbed.reductions import First, Last, MaxAbs, MaxDistanceFromFirst, MaxNorm, Reductions
+    from testbed.recording.recorder import Chunk
+    from testbed.recording.reductions import First, Last, MaxAbs, MaxDistanceFromFirst, MaxNorm, Reductions
 
     rng = np.random.default_rng(15)
     values = rng.normal(size=(1000, 3)) * np.exp(rng.normal(size=(1000, 1)) * 5)
@@ -232,7 +232,7 @@ def test_the_windowed_reduced_cmg_reference_agrees_with_the_whole_run_integratio
     a margin of 16 samples), far below the 1e-6 rad/s the shipped check allows; and one window
     that holds the whole run is the whole-run integration, bit for bit."""
     import testbed
-    from testbed.reference_windows import WindowedReference
+    from testbed.recording.reference_windows import WindowedReference
     from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel, reduced_cmg_omega, reduced_cmg_segment
 
     result = testbed.run("cmg_open_loop", overrides=["sim.duration_s=120", "reference=", "checks={}"])
@@ -251,7 +251,7 @@ def test_the_windowed_reduced_cmg_reference_agrees_with_the_whole_run_integratio
         windowed = WindowedReference(segment, keys[:3], None, window=window)
         parts = []
         for lo in range(0, len(times), 97):  # chunks that do not line up with the windows
-            chunk = testbed.recorder.Chunk(lo, times[lo:lo + 97], {k: v[lo:lo + 97] for k, v in histories.items()})
+            chunk = testbed.recording.recorder.Chunk(lo, times[lo:lo + 97], {k: v[lo:lo + 97] for k, v in histories.items()})
             parts.append(windowed.update(chunk))
         parts.append(windowed.finish())
         parts = [p for p in parts if p is not None]
@@ -266,7 +266,7 @@ def test_an_enveloped_trace_holds_every_full_rate_sample_between_its_min_and_max
     sample of the same run at full rate lies within its block's envelope, the bounds are
     attained (they are the block's extremes, not padded), and the file has fewer rows."""
     import testbed
-    from testbed.trace import read_signals
+    from testbed.recording.trace import read_signals
 
     rng = np.random.default_rng(15)
     inertia = sorted(rng.uniform(200, 2000, 3))  # a body not in the repository, tumbling about a random axis
@@ -310,8 +310,8 @@ def test_an_envelope_must_be_whole_trace_periods():
 
 def _fed_in_chunks(reductions_, time, signals, rng, cuts=9):
     """A Reductions fed `signals` (key -> (n, ...)) in chunks cut at random rows."""
-    from testbed.recorder import Chunk
-    from testbed.reductions import Reductions
+    from testbed.recording.recorder import Chunk
+    from testbed.recording.reductions import Reductions
 
     running = Reductions(reductions_)
     edges = np.sort(rng.choice(np.arange(1, len(time)), size=cuts, replace=False))
@@ -328,7 +328,7 @@ def test_row_reductions_and_windows_equal_the_whole_history_expressions():
     """Mean, NaN-aware maxima, the value at a time and the peak ratio of consecutive windows,
     fed in random chunks, against the numpy expression over the whole history (NaN rows where
     the signal was not recorded, as the trace's last row holds only the truth)."""
-    from testbed.reductions import FirstFrom, Mean, NanMax, NanMaxBefore, WindowPeakRatio
+    from testbed.recording.reductions import FirstFrom, Mean, NanMax, NanMaxBefore, WindowPeakRatio
 
     rng = np.random.default_rng(151)
     n = 2000
@@ -362,8 +362,8 @@ def test_a_tail_window_equals_the_whole_history_one_when_the_run_ends_early_or_o
     ends on time (the aggregate kept over the planned window), and runs cut short at 71.3 s and
     7 s (the samples kept for that case); with fewer samples kept than the early window holds,
     the value is refused, not wrong."""
-    from testbed import reductions
-    from testbed.reductions import TailMean, TailNanMax
+    from testbed.recording import reductions
+    from testbed.recording.reductions import TailMean, TailNanMax
 
     rng = np.random.default_rng(152)
     time = np.arange(2000) * 0.05
@@ -391,8 +391,9 @@ def test_a_long_run_is_written_without_the_footer_and_reads_back_whole(tmp_path,
     """Rerun's footer (a manifest of every chunk, kept in memory until the file ends: the memory
     of a long run grew with it) ends a short run's file and not a long one's; both read back
     with every sample."""
-    from testbed import read, run, trace
-    from testbed.scenario import load_scenario
+    from testbed import read, run
+    from testbed.recording import trace
+    from testbed.scenario.loading import load_scenario
 
     scenario = load_scenario("cmg_open_loop", ["sim.duration_s=10", "reference=", "checks={}"])  # 101 samples
     footer_magic = b"RRF2FOOT"

@@ -8,8 +8,8 @@ import pytest
 import yaml
 
 from testbed.cli import main
-from testbed.sweep import expand
-from testbed.sweep_runner import run_cases
+from testbed.campaign.cases import expand
+from testbed.campaign.rows import run_cases
 
 # A short planar case: free decay only (6 s), so each case costs a fraction of a second.
 BASE = {
@@ -111,7 +111,7 @@ def test_bad_worker_count_exit_2(tmp_path, capsys):
 
 
 def test_random_draws_follow_their_distributions_and_repeat_with_the_seed():
-    from testbed.sweep_spec import assignments, load_spec
+    from testbed.campaign.spec import assignments, load_spec
 
     block = {"random": {"a": {"choice": [1, "two", [3.0]]}, "b": {"integer": [2, 4]},
                         "c": {"uniform": [-1.0, 1.0]}, "d": {"log_uniform": [0.1, 10.0]}},

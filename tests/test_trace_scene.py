@@ -10,10 +10,10 @@ import pytest
 from rerun.chunk import RrdReader
 
 import testbed
-from testbed.scene import hinge_poses, moving_parts
+from testbed.recording.scene import hinge_poses, moving_parts
 from testbed.systems.cmg_rhombus import ClusterGeometry, CmgRhombusParams, build
 from testbed.systems.cmg_rhombus.momentum_envelope import envelope_points
-from testbed.trace import measure_colors, read_signals
+from testbed.recording.trace import measure_colors, read_signals
 
 ARM = """<mujoco>
   <worldbody>

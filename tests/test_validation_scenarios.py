@@ -7,7 +7,7 @@ form, ODE, reduced model) or a conservation law; here every check must exist and
 import pytest
 
 from testbed.runner import run_scenario
-from testbed.scenario import load_scenario
+from testbed.scenario.loading import load_scenario
 
 # scenario -> the checks it must carry (with the bounds at least this tight)
 REQUIRED = {

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from testbed.errors import InputError, quoted
-from testbed.schema import UNIT_RANGES
+from testbed.scenario.schema import UNIT_RANGES
 
 
 def finite_number(field: str, value) -> float:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from testbed.errors import InputError
 from testbed.pipeline import stage
 from testbed.math.quaternion import quat_from_rotation_vector, quat_mul
-from testbed.schema import param
+from testbed.scenario.schema import param
 from testbed.stages.white_noise import WhiteNoise
 
 
@@ -34,7 +34,7 @@ class IdealAttitude:
         self.noise = WhiteNoise(params.seed)
 
     def applied(self) -> dict:
-        """The noise seed this sensor draws with (testbed.readback)."""
+        """The noise seed this sensor draws with (testbed.campaign.applied_values)."""
         return {"seed": self.noise.seed}
 
     def measure(self, t, plant):

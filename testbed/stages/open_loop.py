@@ -14,7 +14,7 @@ from math import sin
 import numpy as np
 
 from testbed.pipeline import stage
-from testbed.schema import param
+from testbed.scenario.schema import param
 
 ZERO3 = [0.0, 0.0, 0.0]
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from testbed.math.validation import check_unit_vector
 from testbed.pipeline import stage
-from testbed.schema import join, param, whole_multiple
+from testbed.scenario.schema import join, param, whole_multiple
 from testbed.stages.white_noise import WhiteNoise
 
 
@@ -52,7 +52,7 @@ class RateGyro:
         self.stamp = np.zeros(1)
 
     def applied(self) -> dict:
-        """The sensing axis and noise seed this gyro measures with (testbed.readback)."""
+        """The sensing axis and noise seed this gyro measures with (testbed.campaign.applied_values)."""
         return {"axis": self.axis.tolist(), "seed": self.noise.seed}
 
     def measure(self, t, plant):

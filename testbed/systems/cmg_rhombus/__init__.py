@@ -15,7 +15,7 @@ from testbed.systems.cmg_rhombus import envelope_command, metrics, reduced_model
 from testbed.systems.cmg_rhombus.cluster import ClusterGeometry
 from testbed.systems.cmg_rhombus.model import CmgRhombusParams, build
 from testbed.systems.cmg_rhombus.plant import CmgPlant, CmgRhombus
-from testbed.systems_registry import system
+from testbed.systems.registry import system
 
 
 @system("cmg_rhombus", CmgRhombusParams)

@@ -10,7 +10,7 @@ rotor momenta, H(beta) and dH/dbeta from the compiled model (never typed in a se
 
 import numpy as np
 
-from testbed.free_bus import BUS_BODY
+from testbed.systems.free_bus import BUS_BODY
 from testbed.math.quaternion import quat_to_matrix
 from testbed.systems.cmg_rhombus.momentum_gauge import envelope_gauge
 

@@ -14,10 +14,10 @@ import mujoco
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.free_bus import set_bus_mass
+from testbed.systems.free_bus import set_bus_mass
 from testbed.math.validation import check_principal_inertia
-from testbed.shipped_files import compile_model, load_spec
-from testbed.schema import join, param
+from testbed.scenario.shipped_files import compile_model, load_spec
+from testbed.scenario.schema import join, param
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTOR_SPEED_NUMERIC, ROTORS, rhombus_axes
 
 GIMBAL_SERVOS = tuple(f"gimbal_rate{i}" for i in range(1, N_CMG + 1))

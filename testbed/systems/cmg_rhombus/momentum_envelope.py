@@ -34,7 +34,7 @@ from testbed.systems.cmg_rhombus.cluster import rhombus_axes
 from testbed.systems.cmg_rhombus.momentum_gauge import fibonacci_sphere, unit_axes
 from testbed.errors import InputError
 from testbed.math.validation import finite_number, positive_number
-from testbed.trace import recording_to
+from testbed.recording.trace import recording_to
 
 # Directions u closer than this (|g_i × u|) to a gimbal axis are skipped (see module doc).
 _AXIS_EPS = 1e-6

@@ -9,10 +9,10 @@ import mujoco
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.free_bus import FreeBus
+from testbed.systems.free_bus import FreeBus
 from testbed.math.quaternion import quat_conj, quat_rotate
 from testbed.plant import Plant
-from testbed.scene import moving_parts
+from testbed.recording.scene import moving_parts
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTORS, ClusterGeometry
 from testbed.systems.cmg_rhombus.gimbal_servo import FeedForwardServo, IntVelocityServo
 from testbed.systems.cmg_rhombus.model import GIMBAL_MOTORS, GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS

@@ -34,12 +34,12 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
-from testbed.free_bus import BUS_BODY
+from testbed.systems.free_bus import BUS_BODY
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, ROTORS, ClusterGeometry
 from testbed.math.quaternion import quat_to_matrix
-from testbed.reference_windows import WindowedReference
-from testbed.references_registry import reference
-from testbed.schema import param
+from testbed.recording.reference_windows import WindowedReference
+from testbed.references.registry import reference
+from testbed.scenario.schema import param
 
 
 def _rotation_about(axis, angle):

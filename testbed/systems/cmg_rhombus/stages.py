@@ -9,7 +9,7 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.pipeline import stage
-from testbed.schema import param
+from testbed.scenario.schema import param
 from testbed.stages.open_loop import SinusoidProfile
 
 

@@ -15,13 +15,13 @@ import mujoco
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.free_bus import FreeBus
+from testbed.systems.free_bus import FreeBus
 from testbed.math.validation import check_principal_inertia, check_unit_vector
-from testbed.shipped_files import compile_model, load_spec
+from testbed.scenario.shipped_files import compile_model, load_spec
 from testbed.plant import Plant
-from testbed.references_registry import reference
-from testbed.schema import join, param
-from testbed.systems_registry import system
+from testbed.references.registry import reference
+from testbed.scenario.schema import join, param
+from testbed.systems.registry import system
 
 
 @dataclass

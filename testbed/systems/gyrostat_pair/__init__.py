@@ -12,11 +12,11 @@ unmeasured rate, and the synchronisation of the follower with the leader
 Reference `gyrostat_leader`: the leader by eq. (1) with constant lambda (solve_ivp).
 """
 
-from testbed.references_registry import reference
+from testbed.references.registry import reference
 from testbed.systems.gyrostat_pair import metrics, stages  # noqa: F401  (register)
 from testbed.systems.gyrostat_pair.model import GyrostatPairParams, build
 from testbed.systems.gyrostat_pair.plant import GyrostatPairPlant
-from testbed.systems_registry import system
+from testbed.systems.registry import system
 
 
 @system("gyrostat_pair", GyrostatPairParams)

@@ -23,8 +23,8 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.math.validation import check_principal_inertia
-from testbed.shipped_files import compile_model, load_spec
-from testbed.schema import join, param
+from testbed.scenario.shipped_files import compile_model, load_spec
+from testbed.scenario.schema import join, param
 
 XML_FILE = "gyrostat_pair.xml"
 ROLES = ("leader", "follower")

@@ -28,7 +28,7 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.math.rk4 import rk4_steps
 from testbed.pipeline import stage
-from testbed.schema import param
+from testbed.scenario.schema import param
 from testbed.systems.gyrostat_pair.model import body_acceleration
 from testbed.systems.gyrostat_pair.observer import InvariantManifoldObserver
 

@@ -12,7 +12,7 @@ rod and a coaxial rotor on prescribed motions, stabilised on a program motion
 from testbed.systems.gyrostat_variable import metrics, stages  # noqa: F401  (register)
 from testbed.systems.gyrostat_variable.model import VariableGyrostatParams, build
 from testbed.systems.gyrostat_variable.plant import VariableGyrostatPlant
-from testbed.systems_registry import system
+from testbed.systems.registry import system
 
 
 @system("gyrostat_variable", VariableGyrostatParams)

@@ -4,13 +4,13 @@ The deviations x = q - r(t) and x' of the Euler angles (truth/deviation,
 truth/deviation_rate, the paper's Figs. 2-7) at the end of the run, and a monotone-envelope
 ratio: the peak of |x| over each ENVELOPE_WINDOW_S window divided by the peak over the
 window before, the largest such ratio (< 1: every window's peak is below the previous one's),
-kept as the run goes (testbed.reductions.WindowPeakRatio).
+kept as the run goes (testbed.recording.reductions.WindowPeakRatio).
 """
 
 from __future__ import annotations
 
 from testbed.metrics import final_norm_metric, metric
-from testbed.reductions import WindowPeakRatio
+from testbed.recording.reductions import WindowPeakRatio
 
 ENVELOPE_WINDOW_S = 5.0
 

@@ -23,10 +23,10 @@ import mujoco
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.free_bus import BUS_BODY
+from testbed.systems.free_bus import BUS_BODY
 from testbed.math.euler_angles import wrap_angle
-from testbed.shipped_files import compile_model, load_spec
-from testbed.schema import join, param
+from testbed.scenario.shipped_files import compile_model, load_spec
+from testbed.scenario.schema import join, param
 
 XML_FILE = "gyrostat_variable.xml"
 

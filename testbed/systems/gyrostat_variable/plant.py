@@ -13,7 +13,7 @@ import mujoco
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.free_bus import BUS_BODY, FreeBus
+from testbed.systems.free_bus import BUS_BODY, FreeBus
 from testbed.math.euler_angles import angle_rates, body_rates, euler_from_quat, quat_from_euler
 from testbed.plant import Plant
 from testbed.systems.gyrostat_variable.model import (

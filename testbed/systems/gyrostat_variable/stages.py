@@ -24,7 +24,7 @@ from testbed.errors import InputError
 from testbed.math.euler_angles import angle_rates, euler_from_quat
 from testbed.math.validation import check_positive_definite
 from testbed.pipeline import stage
-from testbed.schema import join, param
+from testbed.scenario.schema import join, param
 from testbed.systems.gyrostat_variable.model import build, deviations, prescribed, program
 from testbed.systems.gyrostat_variable.program_motion import EulerDynamics
 

@@ -12,7 +12,7 @@ axis, regulated by the analytic optimal (AKOR) LQR law (models/planar.xml).
 from testbed.systems.planar import metrics, stages  # noqa: F401  (register)
 from testbed.systems.planar.model import PlanarParams, build
 from testbed.systems.planar.plant import PlanarPlant
-from testbed.systems_registry import system
+from testbed.systems.registry import system
 
 
 @system("planar", PlanarParams, free_flying=False)

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from testbed.shipped_files import compile_model, load_spec
-from testbed.schema import param
+from testbed.scenario.shipped_files import compile_model, load_spec
+from testbed.scenario.schema import param
 
 JOINT, BODY, CONTROL, DISTURBANCE = "angle", "rig", "control", "disturbance"
 

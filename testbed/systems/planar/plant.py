@@ -16,7 +16,7 @@ import numpy as np
 from testbed.systems.planar.model import PlanarParams, PlanarRig, build
 from testbed.errors import InputError
 from testbed.plant import Plant
-from testbed.schema import whole_multiple
+from testbed.scenario.schema import whole_multiple
 
 
 class PlanarPlant(Plant):

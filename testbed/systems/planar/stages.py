@@ -17,7 +17,7 @@ import numpy as np
 from testbed.systems.planar.akor_regulator import lqr_gain
 from testbed.errors import InputError
 from testbed.pipeline import stage
-from testbed.schema import param
+from testbed.scenario.schema import param
 from testbed.stages.white_noise import WhiteNoise
 
 

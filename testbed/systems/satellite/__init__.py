@@ -12,13 +12,13 @@ import mujoco
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.free_bus import FreeBus, set_bus_mass
+from testbed.systems.free_bus import FreeBus, set_bus_mass
 from testbed.math.validation import check_principal_inertia
-from testbed.shipped_files import compile_model, load_spec
+from testbed.scenario.shipped_files import compile_model, load_spec
 from testbed.plant import Plant
-from testbed.references_registry import reference
-from testbed.schema import join, param
-from testbed.systems_registry import system
+from testbed.references.registry import reference
+from testbed.scenario.schema import join, param
+from testbed.systems.registry import system
 
 
 @dataclass(kw_only=True)

@@ -1,0 +1,109 @@
+"""Run the cases of a sweep or campaign on the engine (testbed.campaign.engine), one row each.
+
+A row is everything a case did, never an exception: `case`, the values set (a list of numbers
+as one column per component, `path[i]`), `status` (ok | diverged | error), `passed`, `error`,
+`wall_s`, the case's `seed`, derived columns (a misalignment angle), the values read back from
+the built plant and stages (`applied:path`, testbed.campaign.applied_values), every metric and every check
+(`check:NAME` pass/FAIL). A case whose read-back differs from what was set stops before its
+first step with status error.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+import traceback
+from pathlib import Path
+from typing import Callable
+
+from testbed.errors import described, error_line
+from testbed.cli.interrupts import from_a_signal
+from testbed.scenario.schema import is_number
+from testbed.campaign.cases import Case
+
+
+def flat(values: dict, prefix: str = "") -> dict:
+    """Row cells of `values`: a list of numbers becomes `key[i]` per component, a mapping or a
+    list of anything else its JSON text, a number, string or bool itself."""
+    cells = {}
+    for key, value in values.items():
+        if isinstance(value, (list, tuple)) and value and all(is_number(v) for v in value):
+            cells.update({f"{prefix}{key}[{i}]": v for i, v in enumerate(value)})
+        elif isinstance(value, (list, tuple, dict)):
+            cells[f"{prefix}{key}"] = json.dumps(value)
+        else:
+            cells[f"{prefix}{key}"] = value
+    return cells
+
+
+def case_row(case: Case, applied: dict, status: str = "", passed: bool = False, error: str = "",
+             wall_s: float | None = None, results: dict | None = None) -> dict:
+    """The row of `case` (module doc); `applied`: testbed.campaign.applied_values.applied_values, `results`:
+    the metrics and the `check:NAME` cells."""
+    return ({"case": case.index, **flat(case.values), "status": status, "passed": passed, "error": error,
+             "wall_s": wall_s, "seed": case.seed, **case.derived}
+            | flat({path: value for path, (value, _) in applied.items()}, "applied:") | (results or {}))
+
+
+def expected_row(case: Case, applied: dict, metric_names, check_names) -> dict:
+    """The cells `case`'s row will hold, each with a placeholder of its kind (a table's columns)."""
+    return case_row(case, applied, wall_s=0.0, results={name: math.nan for name in metric_names}
+                    | {f"check:{name}": "" for name in check_names})
+
+
+def run_case(case: Case, rrd: str | None = None) -> dict:
+    """Run one case (its trace to `rrd` if given) and return its row (see module doc)."""
+    from testbed.campaign.applied_values import applied_values, check_applied
+    from testbed.runner import run_scenario
+    from testbed.scenario.loading import parse
+
+    wall0 = time.perf_counter()
+    applied: dict = {}
+
+    def read_back(plant, pipeline):
+        applied.update(applied_values(case.values, scenario, plant, pipeline.stages()))
+        check_applied(case.values, applied)
+
+    try:
+        scenario = parse(case.data, case.source)
+        result = run_scenario(scenario, Path(rrd) if rrd else None, on_prepared=read_back)
+    except BaseException as exc:  # a case's failure belongs in its row, sys.exit in a worker too
+        if from_a_signal(exc):
+            raise
+        last = traceback.extract_tb(exc.__traceback__)[-1]
+        return case_row(case, applied, "error", False,
+                        error_line(f"{described(exc)} ({Path(last.filename).name}:{last.lineno})"),
+                        time.perf_counter() - wall0)
+    checks = {f"check:{c['name']}": "pass" if c["passed"] else "FAIL" for c in result.checks}
+    return case_row(case, applied, result.status, result.passed, result.error or "", result.wall_s,
+                    result.metrics | checks)
+
+
+def died_row(case: Case, reason: str) -> dict:
+    """The row of a case whose worker process died running it."""
+    return case_row(case, {}, "error", False, reason)
+
+
+def run_cases(cases: list[Case], workers: int | None = None, rrd_dir: Path | None = None,
+              progress: Callable[[int, int, int], None] | None = None, scheduler: str | None = None,
+              on_row: Callable[[dict], None] | None = None, engine=None) -> list[dict]:
+    """Rows for `cases`, in case order, run on `engine` (testbed.campaign.engine.Engine, already
+    started), else on one started here: a local cluster of `workers` processes, or the Dask
+    scheduler at `scheduler`; `on_row(row)` and `progress(done, total, failed)` after each case,
+    as it finishes."""
+    from testbed.campaign.engine import Engine, WorkerDied
+
+    if engine is None:
+        with Engine(workers, scheduler) as started:
+            return run_cases(cases, rrd_dir=rrd_dir, progress=progress, on_row=on_row, engine=started)
+    tasks = [(case, str(rrd_dir / f"case{case.index:04d}.rrd") if rrd_dir else None) for case in cases]
+    rows: dict[int, dict] = {}
+    for (case, _), outcome in engine.results(run_case, tasks, lambda task: f"case{task[0].index}"):
+        row = died_row(case, outcome.reason) if isinstance(outcome, WorkerDied) else outcome
+        rows[case.index] = row
+        if on_row:
+            on_row(row)
+        if progress:
+            progress(len(rows), len(cases), sum(not r["passed"] for r in rows.values()))
+    return [rows[c.index] for c in cases]

@@ -1,0 +1,235 @@
+"""`testbed sweep` (also `testbed campaign`): run every case of a scenario's `sweep:` block, in
+parallel, into a table; or rerun one case alone.
+
+    testbed sweep SCENARIO [--workers N | --scheduler tcp://HOST:PORT] [--out DIR] [--resume]
+                           [--rrd] [--set KEY.PATH=VALUE] [--json]
+    testbed sweep SCENARIO --case N [--out DIR] [--set ...] [--json]
+
+Every case is validated and built (and what it would run with read back, testbed.campaign.applied_values)
+before the first one runs. The cases run on Dask (testbed.campaign.engine): a local cluster of
+--workers processes started inside the command, or the cluster whose scheduler is at
+--scheduler. Each row goes to DIR/<scenario>.csv and .parquet as its case finishes (default
+DIR: runs/<scenario>_sweep; testbed.campaign.table); Ctrl-C keeps them, --resume runs only the
+cases the table lacks. At the end DIR/summary/ gets summary.json and summary.rrd
+(testbed.campaign.stats, testbed.campaign.plots), and the terminal the statistics; with --rrd
+each case also writes DIR/caseNNNN.rrd. `--case N` rebuilds case N alone from the campaign
+seed, runs it in this process (bit for bit the numbers of its row) and writes
+DIR/caseNNNN.rrd. `--set` changes the base scenario before the sweep expands (the sweep block
+too). Exit 0 when every case passed all its checks, 1 otherwise, 2 for bad input (nothing
+runs or is written), 130 on Ctrl-C.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from pathlib import Path
+
+from testbed.cli.commands import command, reported
+from testbed.errors import InputError
+from testbed.cli.json_stdout import reserved_for_json
+from testbed.cli.progress import advance_to, progress_bar
+
+EXIT_OK, EXIT_FAILED = 0, 1
+
+
+@command("sweep")
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser("sweep", aliases=["campaign"],
+                              help="run a scenario's sweep or Monte Carlo campaign in parallel into a table")
+    p.add_argument("scenario", help="scenario file or name in scenarios/ (with a sweep: block)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="worker processes of the local cluster (default: one per core)")
+    p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                   help="run on the Dask cluster of this scheduler instead of a local one")
+    p.add_argument("--out", help="output directory (default runs/<scenario>_sweep)")
+    p.add_argument("--rrd", action="store_true", help="also write one .rrd per case")
+    p.add_argument("--case", type=int, default=None, metavar="N",
+                   help="rerun case N alone (in this process) and write its .rrd")
+    p.add_argument("--resume", action="store_true",
+                   help="keep the rows the same campaign left in the folder and run only the other cases")
+    p.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE",
+                   help="override a field of the base scenario before expanding")
+    p.add_argument("--json", action="store_true", help="print the rows as one JSON list")
+    p.set_defaults(func=run)
+
+
+def load_campaign(name: str, overrides: list[str]):
+    """(scenario name, raw data with the overrides applied, its source path, sweep spec)."""
+    from testbed.scenario.loading import apply_override, read_yaml, resolve_path
+    from testbed.campaign.spec import load_spec
+
+    path = resolve_path(name)
+    data = read_yaml(path)
+    for assignment in overrides:
+        apply_override(data, assignment)
+    return str(data.get("name", path.stem)), data, str(path), load_spec(data.get("sweep"))
+
+
+def build_and_read_back(scenario, values: dict) -> dict:
+    """Build a case as its run will (testbed.runner.prepare) and check that every value set
+    reaches the built plant and stages (testbed.campaign.applied_values.NotApplied otherwise); returns what
+    its row will hold: the read-back values, the names of its metrics and of its checks."""
+    from testbed.metrics import available
+    from testbed.campaign.applied_values import applied_values, check_applied
+    from testbed.runner import prepare
+
+    plant, pipeline, _ = prepare(scenario)
+    applied = applied_values(values, scenario, plant, pipeline.stages())
+    check_applied(values, applied)
+    return {"applied": applied, "metrics": available(scenario),
+            "checks": {name: {"max": limit.max, "min": limit.min} for name, limit in scenario.checks.items()}}
+
+
+def load_cases(name: str, overrides: list[str], indices=None):
+    """(scenario name, raw data, cases) of a sweep scenario, each case validated, built and read
+    back; InputError if anything is bad."""
+    from testbed.campaign.cases import expand
+
+    name, data, source, _ = load_campaign(name, overrides)
+    return name, data, expand(data, source, build_and_read_back, indices)
+
+
+def output_folder(args, name: str) -> Path:
+    """The campaign's folder, refused before anything runs unless it can be written."""
+    from testbed.recording.trace import file_stem, output_path
+
+    out = Path(args.out) if args.out else Path("runs") / f"{file_stem(name)}_sweep"
+    output_path(out / f"{file_stem(name)}.csv")  # probes that a file can be created there (not under a file)
+    return out
+
+
+def run(args) -> int:
+    workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
+    if workers < 1:
+        raise InputError("--workers", f"must be >= 1, got {workers}")
+    if args.scheduler is not None and args.workers is not None:
+        raise InputError("--workers", "sizes the local cluster; with --scheduler the cluster's own workers run the cases")
+    if args.case is not None:
+        return _rerun_case(args)
+    from testbed.campaign.engine import Engine
+
+    # a plug-in's prints go to stderr, the workers' too (they inherit it as their stdout)
+    with reserved_for_json(args.json):
+        name, data, cases = load_cases(args.scenario, args.set)
+        out = output_folder(args, name)
+        table, done = open_table(out, name, data, cases, args)  # refuses a damaged folder; writes nothing
+        with Engine(workers, args.scheduler) as engine:  # an unreachable scheduler is refused before any file is written
+            table.start()
+            rows = _run_into(table, done, cases, engine, out if args.rrd else None, args)
+        lines = summarise(name, data, rows, cases, out, args)
+
+    def report():
+        if args.json:
+            print(json.dumps(rows))
+            return
+        passed = sum(r["passed"] for r in rows)
+        print(f"sweep {name}: {len(rows)} cases, {passed} passed, {len(rows) - passed} failed; "
+              f"table {table.csv_path} (and .parquet), summary in {out / 'summary'}")
+        print("\n".join(lines))
+    return reported(EXIT_OK if all(r["passed"] for r in rows) else EXIT_FAILED, report)
+
+
+def summarise(name: str, data: dict, rows: list[dict], cases, out: Path, args) -> list[str]:
+    """Write DIR/summary/summary.json and summary.rrd of a finished campaign (testbed.campaign.stats,
+    testbed.campaign.plots); returns the lines for the terminal. Each value of a grid field or
+    a choice gets its own pass rate."""
+    from testbed.campaign.plots import write_summary_rrd
+    from testbed.campaign.stats import report, rerun_command, summary
+    from testbed.recording.atomic_file import write_atomically
+    from testbed.campaign.rows import flat
+    from testbed.campaign.spec import load_spec
+
+    spec = load_spec(data.get("sweep"))
+    choices = [key for key, dist in spec.drawn.items() if dist.kind == "choice"]
+    groups = [key for key in [*spec.grid, *choices] if key in rows[0]]  # a value's own column (not a vector)
+    metric_names = list(dict.fromkeys(m for case in cases for m in case.prepared["metrics"]))
+    parameters = list(dict.fromkeys(k for case in cases for k in [*flat(case.values), *case.derived]))
+    limits = {case.index: case.prepared["checks"] for case in cases}
+    result = summary(name, rows, metric_names, limits, rerun_command(args.scenario, args.set, str(out)), groups)
+    result["parameters"] = parameters
+    summary_json, summary_rrd = summary_files(out)
+    summary_json.parent.mkdir(exist_ok=True)  # apart from the cases' caseNNNN.rrd
+    write_atomically(summary_json, json.dumps(result, indent=1))
+    write_summary_rrd(summary_rrd, rows, metric_names, parameters, result)
+    return report(result)
+
+
+def summary_files(out: Path) -> tuple[Path, Path]:
+    """Where a finished campaign's statistics go: DIR/summary/summary.json and summary.rrd."""
+    return out / "summary" / "summary.json", out / "summary" / "summary.rrd"
+
+
+def open_table(out: Path, name: str, data: dict, cases, args):
+    """(the campaign's table in `out`, not started yet, the rows it holds by case): its columns
+    those the cases' rows will have; a fresh table, or with --resume the one this campaign left
+    there. Writes nothing; a folder the campaign could not finish in is refused (an output
+    path of the wrong kind, a damaged table: testbed.campaign.table)."""
+    from testbed.campaign.table import CampaignTable, fingerprint, merge_kinds
+    from testbed.campaign.rows import expected_row
+    from testbed.recording.trace import file_stem, output_path
+
+    for path in summary_files(out):
+        output_path(path)  # written only when every case has run
+
+    columns: dict = {}
+    for case in cases:
+        merge_kinds(columns, expected_row(case, case.prepared["applied"], case.prepared["metrics"],
+                                          case.prepared["checks"]))
+    identity = {"scenario": name, "set": list(args.set), "cases": len(cases), "fingerprint": fingerprint(data, cases)}
+    table = CampaignTable(out, file_stem(name), columns, identity)
+    return table, table.read(args.resume)
+
+
+def _run_into(table, done: dict, cases, engine, rrd_dir: Path | None, args) -> list[dict]:
+    """Run the cases the table does not hold yet (`done`), each row into it as its case
+    finishes; on Ctrl-C (or any failure) the table is closed with every finished row, then the
+    stop goes on."""
+    from testbed.campaign.rows import run_cases
+
+    todo = [case for case in cases if case.index not in done]
+    failed_before = sum(not row["passed"] for row in done.values())
+    try:
+        with progress_bar(f"sweep {table.csv_path.stem}", len(cases), "cases") as bar:
+            bar.disable = bar.disable or args.json
+            advance_to(bar, len(done), failed=failed_before)
+            run_cases(todo, rrd_dir=rrd_dir, on_row=table.append, engine=engine, progress=lambda count, total, failed:
+                      advance_to(bar, len(done) + count, failed=failed_before + failed))
+    except BaseException:
+        rows = table.close()
+        print(f"stopped: {len(rows)} of {len(cases)} cases finished, kept in {table.csv_path} and "
+              f"{table.parquet_path.name}; --resume runs the other {len(cases) - len(rows)}", file=sys.stderr)
+        raise
+    return table.close()
+
+
+def _why(row: dict) -> str:
+    failed = [k.split(":", 1)[1] for k, v in row.items() if k.startswith("check:") and v == "FAIL"]
+    return row.get("error") or f"failed checks: {', '.join(failed)}"
+
+
+def _rerun_case(args) -> int:
+    """`--case N`: case N alone, in this process, its trace written."""
+    from testbed.campaign.rows import run_case
+    from testbed.recording.trace import output_path
+
+    with reserved_for_json(args.json):  # a plug-in's prints go to stderr
+        name, _, _, spec = load_campaign(args.scenario, args.set)
+        if not 0 <= args.case < spec.count:
+            raise InputError("--case", f"must be a case number 0 ... {spec.count - 1}, got {args.case}")
+        _, _, (case,) = load_cases(args.scenario, args.set, [args.case])
+        rrd = output_path(output_folder(args, name) / f"case{case.index:04d}.rrd")
+        row = run_case(case, str(rrd))
+
+    def report():
+        if args.json:
+            print(json.dumps(row))
+            return
+        print(f"case {case.index} of {name} (seed {case.seed}): {row['status']}"
+              f"{'' if row['passed'] else ': ' + _why(row)}")
+        for key, value in row.items():
+            if key not in ("case", "status", "passed", "error", "seed"):
+                print(f"  {key:44s} {value}")
+        print(f"trace: {rrd}")
+    return reported(EXIT_OK if row["passed"] else EXIT_FAILED, report)

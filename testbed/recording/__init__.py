@@ -1,0 +1,2 @@
+"""Recording a run: the streamed trace file (.rrd) and reading it back, the recorder and its
+streamed reductions, reference windows, the 3D scene, the live viewer, atomic file writes."""

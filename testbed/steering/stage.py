@@ -1,0 +1,235 @@
+"""CMG steering as an allocator: wanted body torque -> gimbal-rate commands.
+
+The cluster must deliver H' = -(M + w x H) (SEEDS §004 eq. 14, 16, body frame) through
+h J(b) b' = H' (eq. 17); J, h and H are read from the compiled model (ClusterGeometry) at
+the measured gimbal angles and rotor speeds. Each law of testbed.steering is a stage type:
+`pinv`, `sr`, `gsr`, `minimax_lp`, `minimax`, `minimax_avoid`. When the best achievable
+max |b'_i| exceeds b'max the demand is scaled down, keeping its direction; `scale` records the
+factor, `torque_delivered` the torque the command produces on the bus, `momentum` the H it was
+computed with (the rotors' spin momentum H(beta, Omega) the encoders and rotor tachometers give),
+`held_momentum` the momentum the cluster holds in full (H plus the gimbal frames and rotors
+turning with the gimbal rates, ClusterGeometry.held_momentum: when the actuator state has the
+gimbal tachometers' `gimbal_rate` and the description the gimbal inertias) and `status` the law's
+status flags as the sum of their codes (testbed.steering.result.STATUS_CODES: 1 rate_limited,
+2 rank_deficient, 4 lp_failed, 8 avoidance_limited; 0 ok). What a law needs at each step beyond
+J, h and H' (testbed.steering.STEP_INPUTS) comes from the clock and the cluster description:
+`t` (gsr); dJ_i/dbeta_i (minimax_avoid, `unit_jacobian_derivative` of the description), the
+measured angles, the angles at t = 0 and J there, and the peak rate commanded so far
+(minimax_avoid's pull back to the start's zero-momentum family).
+
+Gimbal limits (optional, every law): `gimbal_angle_limits_deg` ([min, max] or null per gimbal)
+and `gimbal_acceleration_max_deg_s2` become per-step bounds on each rate
+(testbed.steering.gimbal_limits: braking curves from the commanded angles, which the stage
+integrates from its own commands as the servos do, and the previous command), handed to the
+law as `rate_bounds`. Refused before the run: a pair that is not [min, max] with min < max, a
+count that is not the cluster's, a gimbal that starts outside its range. Counted at every
+control step: commanded angles outside their range and commanded rate changes above
+a_max Tc (1 + 1e-9, the rounding of the bounds), the peak commanded acceleration, and the
+measured angles' smallest distance to a stop. The measured angle follows the commanded one
+through the servo, whose stiffness gives way to the gyroscopic torque on the gimbal axis: it
+can pass a stop by that compliance (up to 0.006 deg on the 30 deg/s near-singular slew, docs/theory/steering.md
+"Gimbal limits").
+
+Near-singular default: singular values of J below STAGE_RCOND = 1e-2 of the largest count as
+zero (the library's own default is 1e-9). Then the demand component along the nearly singular
+direction is dropped (the least-squares projection onto the well-conditioned range is
+delivered) instead of asking for rates ~|H'|/sigma_min that the rate limit would answer by
+scaling the whole demand towards zero (scale ~ sigma_min / sigma_max). On
+reorient_near_singular (min-max) this doubled the smallest scale (0.11 -> 0.23) and cut the
+torque error. `options: {rcond: ...}` overrides it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from testbed.errors import InputError
+from testbed.pipeline import stage
+from testbed.scenario.schema import join, param
+from testbed.steering import LAW_OPTIONS, STEERING_LAWS, STEP_INPUTS
+from testbed.steering.gimbal_limits import GimbalLimits
+from testbed.steering.result import status_code
+
+STAGE_RCOND = 1e-2  # relative singular-value cut for the stage (see module doc)
+ACCELERATION_ROUNDING = 1e-9  # relative slack of the acceleration count for the bounds' rounding
+ANGLE_LIMITS = "pipeline.allocator.gimbal_angle_limits_deg"
+
+
+@dataclass(kw_only=True)
+class SteeringParams:
+    beta_rate_max_deg_s: float = param(gt=0, doc="gimbal-rate limit")
+    gimbal_acceleration_max_deg_s2: float | None = param(None, gt=0, doc="limit on the commanded gimbal acceleration")
+    gimbal_angle_limits_deg: list[list[float] | None] | None = None  # per gimbal [min, max] or null (no stops)
+    options: dict[str, float] = field(default_factory=dict)  # law options, e.g. rcond, lambda0
+
+    def validate(self, path: str) -> None:
+        for i, pair in enumerate(self.gimbal_angle_limits_deg or []):
+            field_path = join(path, f"gimbal_angle_limits_deg[{i}]")
+            if pair is not None and len(pair) != 2:
+                raise InputError(field_path, "must be [min, max] in deg, or null for no stops")
+            if pair is not None and not pair[0] < pair[1]:
+                raise InputError(field_path, f"min {pair[0]:g} deg must be below max {pair[1]:g} deg")
+
+
+def configured_limits(params: SteeringParams, ctx, gimbals: int) -> GimbalLimits | None:
+    """The limits of `params` for a cluster of `gimbals`, checked against the angles the encoders
+    report at t = 0 (ctx.actuators); None when there are none."""
+    pairs, acceleration = params.gimbal_angle_limits_deg, params.gimbal_acceleration_max_deg_s2
+    if pairs is None and acceleration is None:
+        return None
+    if pairs is not None and len(pairs) != gimbals:
+        raise InputError(ANGLE_LIMITS, f"gives {len(pairs)} gimbals; the cluster has {gimbals}")
+    pairs = pairs or [None] * gimbals
+    low = np.radians([-np.inf if p is None else p[0] for p in pairs])
+    high = np.radians([np.inf if p is None else p[1] for p in pairs])
+    start = ctx.actuators.get("gimbal_angle")
+    if start is not None:
+        for i, (angle, a, b) in enumerate(zip(start, low, high)):
+            if not a <= angle <= b:
+                raise InputError(f"{ANGLE_LIMITS}[{i}]", f"gimbal {i + 1} starts at {np.degrees(angle):.6g} deg, "
+                                 f"outside [{np.degrees(a):g}, {np.degrees(b):g}] deg")
+    return GimbalLimits(low, high, np.inf if acceleration is None else np.radians(acceleration),
+                        ctx.control_period)
+
+
+class SteeringAllocator:
+    output = "gimbal_rates"
+    law_name = ""
+
+    @classmethod
+    def design(cls, params) -> dict:
+        # the command keys of the torque produced, of the momentum H the command was computed with
+        # and of the momentum the cluster holds in full (see the module doc), and the gimbal-rate
+        # limit [rad/s] the law keeps (what torque the cluster can give: momentum_gauge)
+        return {"delivered_torque": "torque_delivered", "internal_momentum": "momentum",
+                "held_momentum": "held_momentum",
+                "gimbal_rate_limit": float(np.radians(params.beta_rate_max_deg_s))}
+
+    def __init__(self, params: SteeringParams, ctx):
+        if not hasattr(ctx.description, "unit_jacobian"):
+            raise InputError("pipeline.allocator.type", f"{self.law_name} steering needs a system with a "
+                             "gimbal cluster (its plant describes H(beta) and dH/dbeta)")
+        user_options = [name for name in LAW_OPTIONS[self.law_name] if name not in STEP_INPUTS]
+        for option in params.options:
+            if option not in user_options:
+                raise InputError(f"pipeline.allocator.options.{option}",
+                                 f"not an option of {self.law_name} (options: {', '.join(user_options) or 'none'})")
+        self.step_inputs = STEP_INPUTS.intersection(LAW_OPTIONS[self.law_name])
+        if "column_derivative" in self.step_inputs and not hasattr(ctx.description, "unit_jacobian_derivative"):
+            raise InputError("pipeline.allocator.type", f"{self.law_name} steering needs a cluster description "
+                             "with dJ_i/dbeta_i (unit_jacobian_derivative)")
+        self.geometry = ctx.description
+        self.law = STEERING_LAWS[self.law_name]
+        self.rate_max = np.radians(params.beta_rate_max_deg_s)
+        self.period = ctx.control_period
+        gimbals = len(self.geometry.gimbal_axes)
+        self.limits = configured_limits(params, ctx, gimbals)
+        # the angles the run starts from and J there (minimax_avoid's preferred configuration)
+        start = ctx.actuators.get("gimbal_angle")
+        self.start = np.zeros(gimbals) if start is None else np.array(start, dtype=float)
+        self.start_jacobian = self.geometry.unit_jacobian(self.start)
+        self.setpoint = None  # commanded gimbal angles, from the first measurement on
+        self.previous = np.zeros(gimbals)  # the gimbals start at rest
+        defaults = {"rcond": STAGE_RCOND} if "rcond" in LAW_OPTIONS[self.law_name] else {}
+        self.options = defaults | params.options
+        self._check_options()
+        self.reset_statistics()
+
+    def applied(self) -> dict:
+        """The rate limit the law is given [deg/s] (testbed.campaign.applied_values)."""
+        return {"beta_rate_max_deg_s": float(np.degrees(self.rate_max))}
+
+    def _inputs(self, t: float, beta: np.ndarray) -> dict:
+        """The step inputs (STEP_INPUTS) this law takes, at time t and gimbal angles beta."""
+        inputs = {}
+        if "t" in self.step_inputs:
+            inputs["t"] = t
+        if "column_derivative" in self.step_inputs:
+            inputs["column_derivative"] = self.geometry.unit_jacobian_derivative(beta)
+        if "gimbal_angle" in self.step_inputs:
+            inputs["gimbal_angle"] = beta
+        if "preferred_gimbal_angles" in self.step_inputs:
+            inputs["preferred_gimbal_angles"] = self.start
+        if "preferred_jacobian" in self.step_inputs:
+            inputs["preferred_jacobian"] = self.start_jacobian
+        if "peak_rate_so_far" in self.step_inputs:  # 0 before the first step (the options check)
+            inputs["peak_rate_so_far"] = getattr(self, "statistics", {}).get("peak_gimbal_rate", 0.0)
+        return inputs
+
+    def _check_options(self) -> None:
+        """Call the law once with a zero demand so a bad option value is refused before the run."""
+        beta = np.zeros(len(self.geometry.gimbal_axes))
+        try:
+            self.law(self.geometry.unit_jacobian(beta), self.geometry.h, np.zeros(3), self.rate_max,
+                     **self.options, **self._inputs(0.0, beta))
+        except InputError as exc:
+            option = exc.field.removeprefix("steering.")
+            raise InputError(f"pipeline.allocator.options.{option}", exc.reason) from None
+
+    def reset_statistics(self) -> None:
+        self.statistics = {"peak_gimbal_rate": 0.0, "rate_limit_violations": 0,
+                           "min_singularity": np.inf, "min_scale": 1.0, "steps": 0,
+                           "peak_gimbal_acceleration": 0.0, "acceleration_violations": 0,
+                           "angle_limit_violations": 0, "min_angle_margin": np.inf}
+
+    def _count(self, result, beta) -> None:
+        """Extremes over EVERY control step, whatever the trace period (read by the metrics);
+        `beta`: the measured gimbal angles the command was computed at (before the set-point moves)."""
+        s = self.statistics
+        peak = float(np.max(np.abs(result.beta_rate)))
+        s["peak_gimbal_rate"] = max(s["peak_gimbal_rate"], peak)
+        s["rate_limit_violations"] += int(np.count_nonzero(np.abs(result.beta_rate) > self.rate_max))
+        s["min_singularity"] = min(s["min_singularity"], result.singularity_measure)
+        s["min_scale"] = min(s["min_scale"], result.scale)
+        change = np.abs(result.beta_rate - self.previous)
+        s["peak_gimbal_acceleration"] = max(s["peak_gimbal_acceleration"], float(np.max(change)) / self.period)
+        if self.limits is not None:
+            step = self.limits.rate_step * (1.0 + ACCELERATION_ROUNDING)
+            s["acceleration_violations"] += int(np.count_nonzero(change > step))
+            commanded = self.setpoint + self.period * result.beta_rate
+            s["angle_limit_violations"] += int(np.count_nonzero((commanded < self.limits.angle_min)
+                                                                | (commanded > self.limits.angle_max)))
+            margin = np.minimum(beta - self.limits.angle_min, self.limits.angle_max - beta)
+            s["min_angle_margin"] = min(s["min_angle_margin"], float(np.min(margin)))
+        s["steps"] += 1
+
+    def allocate(self, t, demand, estimate, actuators):
+        beta, rotor = actuators["gimbal_angle"], actuators["rotor_rate"]
+        torque = np.asarray(demand.get("torque", np.zeros(3)), float)
+        omega = np.asarray(estimate.get("omega", np.zeros(3)), float)
+        momentum = self.geometry.momentum(beta, rotor)
+        gyroscopic = np.cross(omega, momentum)
+        hdot = -(torque + gyroscopic)
+        inputs = self._inputs(t, beta)
+        if self.limits is not None:
+            if self.setpoint is None:
+                self.setpoint = np.array(beta, dtype=float)
+            inputs["rate_bounds"] = self.limits.rate_bounds(self.setpoint, self.previous, self.rate_max)
+        result = self.law(self.geometry.unit_jacobian(beta), self.geometry.h, hdot, self.rate_max,
+                          **self.options, **inputs)
+        self._count(result, beta)
+        # the full momentum (ClusterGeometry.held_momentum): the spin momentum above plus the turning gimbals'
+        held = (momentum + self.geometry.turning_momentum(actuators["gimbal_rate"])
+                if "gimbal_rate" in actuators and hasattr(self.geometry, "turning_momentum") else momentum)
+        self.previous = result.beta_rate
+        if self.setpoint is not None:  # the servos integrate the held command into their set-point
+            self.setpoint = self.setpoint + self.period * result.beta_rate
+        return {"gimbal_rates": result.beta_rate,
+                "torque_delivered": -result.hdot_delivered - gyroscopic,
+                "momentum": momentum,
+                "held_momentum": held,
+                "scale": np.array([result.scale]),
+                "singularity": np.array([result.singularity_measure]),
+                "rank": np.array([float(result.rank)]),
+                "status": np.array([float(status_code(result.status))])}
+
+
+def _register(name: str) -> None:
+    cls = type(f"{name}_steering", (SteeringAllocator,), {"law_name": name, "__doc__": STEERING_LAWS[name].__doc__})
+    stage("allocator", name, SteeringParams)(cls)
+
+
+for _name in STEERING_LAWS:
+    _register(_name)
