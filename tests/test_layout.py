@@ -145,6 +145,20 @@ def test_every_system_folder_registers_its_own_system_and_has_its_model():
         assert SYSTEMS[name].make_plant.__module__.startswith(f"testbed.systems.{name}")
 
 
+
+def test_every_subcommand_registers_one_way_in_the_module_that_implements_it():
+    from testbed.cli.commands import COMMANDS
+    from testbed.cli.dispatch import BUILT_IN_COMMANDS
+    from testbed.plugins import discover
+
+    discover()
+    assert {name: add_parser.__module__ for name, add_parser in COMMANDS.items()} == {
+        "run": "testbed.cli.run", "check": "testbed.cli.run", "list": "testbed.cli.list_scenarios",
+        "inspect": "testbed.cli.inspect_trace", "sweep": "testbed.cli.campaign", "describe": "testbed.cli.describe",
+        "init": "testbed.cli.init", "envelope": "testbed.systems.cmg_rhombus.envelope_command"}
+    assert {m.__name__ for m in BUILT_IN_COMMANDS} == {add_parser.__module__ for _, add_parser in COMMANDS.items()
+                                                       if add_parser.__module__.startswith("testbed.cli.")}
+
 NEW_SYSTEM = '''"""A second rigid bus, to prove that a system is one folder and one MJCF file."""
 from dataclasses import dataclass
 

@@ -1,4 +1,4 @@
-"""Subcommands of `testbed` beyond run/check/list/inspect, registered by the module that owns them.
+"""Subcommands of `testbed`, each registered by the module that implements it.
 
 `@command(name)` registers `add_parser(subparsers)`, which adds the subcommand's parser and
 sets `func=run`, with `run(args) -> exit status`; a system package may add its own (e.g. a

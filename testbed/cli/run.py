@@ -1,0 +1,126 @@
+"""`testbed run` (one scenario, its .rrd and its summary) and `testbed check` (scenarios and
+a table of their checks): exit status 0 every check passed, 1 a check failed or a run diverged."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from testbed import api
+from testbed.cli.commands import command, reported
+from testbed.cli.json_stdout import reserved_for_json
+from testbed.cli.progress import advance_to, progress_bar
+from testbed.recording import live_view, trace
+from testbed.runner import run_scenario
+
+EXIT_OK, EXIT_FAILED = 0, 1
+
+
+@command("run")
+def add_run_parser(sub) -> None:
+    p = sub.add_parser("run", help="run one scenario headless and write its .rrd")
+    p.add_argument("scenario", help="scenario file or name in scenarios/")
+    p.add_argument("--out", help="output .rrd (default runs/<scenario>.rrd)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE",
+                     help="override a scenario field (validated like the file)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    live = p.add_mutually_exclusive_group()
+    live.add_argument("--view", action="store_true",
+                      help="spawn the Rerun viewer and stream the run to it as it goes (the .rrd is written too)")
+    live.add_argument("--connect", metavar="URL",
+                      help="stream the run as it goes to a Rerun viewer or server already running, "
+                           f"e.g. {live_view.VIEWER_URL.format(port=live_view.VIEWER_PORT)} (the .rrd is written too)")
+    p.set_defaults(func=run)
+
+
+@command("check")
+def add_check_parser(sub) -> None:
+    p = sub.add_parser("check", help="run scenarios and print a table of their checks")
+    p.add_argument("scenarios", nargs="*", help="files or names (default: all in scenarios/)")
+    p.add_argument("--out-dir", default="runs", help="where the .rrd files go")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=check)
+
+
+def _run_one(name: str, overrides, out: str | None, show_progress: bool, view: bool = False, connect: str | None = None):
+    scenario = api.load(name, overrides)
+    out_path = trace.output_path(Path("runs") / f"{trace.file_stem(scenario.name)}.rrd" if out is None else out)
+    live = _live_view(view, connect)
+    result = _run_loaded(scenario, out_path, show_progress, live)
+    if live is not None and not live.complete:
+        print(f"note: the viewer at {live.url} did not take the whole run within {live_view.CLOSE_S:g} s; "
+              f"the trace file holds it", file=sys.stderr)
+    return result
+
+
+def _live_view(view: bool, connect: str | None):
+    """The viewer a run is streamed to besides its file (testbed.recording.live_view): one started now
+    (`--view`) or one already running at `connect`, refused before the run when there is none.
+    Called after the scenario is validated."""
+    if not view and connect is None:
+        return None
+    url = live_view.start_viewer() if view else live_view.check_reachable(connect)
+    return live_view.ViewerStream(url)
+
+
+def _run_loaded(scenario, out_path, show_progress: bool, live=None):
+    duration = scenario.sim.duration_s
+    with progress_bar(scenario.name, duration, "sim s") as bar:
+        bar.disable = bar.disable or not show_progress
+        # the trace is streamed, not kept: the command line needs only the metrics
+        return run_scenario(scenario, out_path, progress=lambda fraction: advance_to(bar, fraction * duration),
+                            live=live)
+
+
+def _print_summary(result) -> None:
+    print(f"scenario {result.scenario}: {result.status}, {result.sim_s:g} s simulated in {result.wall_s:.2f} s")
+    if result.error:
+        print(f"error: {result.error}")
+    for name, value in result.metrics.items():
+        print(f"  {name:32s} {value:.6g}")
+    print_checks([(result.scenario, c) for c in result.checks])
+    print(f"trace: {result.rrd}")
+
+
+def print_checks(rows) -> None:
+    if not rows:
+        return
+    print(f"{'scenario':28s} {'check':32s} {'value':>12s}  {'limit':16s} result")
+    for scenario, c in rows:
+        why = f"  ({c['reason']})" if "reason" in c else ""
+        print(f"{scenario:28s} {c['name']:32s} {c['value']:12.4g}  {c['limit']:16s} "
+              f"{'pass' if c['passed'] else 'FAIL'}{why}")
+
+
+def run(args) -> int:
+    tty = sys.stderr.isatty() and not args.json
+    with reserved_for_json(args.json):  # a plug-in's prints go to stderr
+        result = _run_one(args.scenario, args.set, args.out, tty, args.view, args.connect)
+    return reported(EXIT_OK if result.passed else EXIT_FAILED,
+                    lambda: print(json.dumps(result.as_json())) if args.json else _print_summary(result))
+
+
+def check(args) -> int:
+    from testbed.runner import prepare
+    from testbed.scenario.shipped_files import SCENARIO_DIR
+
+    names = args.scenarios or sorted(str(p) for p in SCENARIO_DIR.glob("*.yaml"))
+    with reserved_for_json(args.json):  # a plug-in's prints go to stderr
+        scenarios = [api.load(name) for name in names]  # every one valid before any runs
+        for scenario in scenarios:
+            prepare(scenario)
+        outs = [trace.output_path(Path(args.out_dir) / f"{trace.file_stem(Path(n).stem)}.rrd", "--out-dir")
+                for n in names]
+        show = sys.stderr.isatty() and not args.json
+        results = [_run_loaded(scenario, out, show) for scenario, out in zip(scenarios, outs)]
+
+    def report():
+        if args.json:
+            print(json.dumps([r.as_json() for r in results]))
+            return
+        print_checks([(r.scenario, c) for r in results for c in r.checks])
+        for r in results:
+            if r.error:
+                print(f"{r.scenario}: {r.error}")
+    return reported(EXIT_OK if all(r.passed for r in results) else EXIT_FAILED, report)
