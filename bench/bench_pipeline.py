@@ -16,7 +16,7 @@ from pathlib import Path
 
 import mujoco
 
-from testbed.blas_threads import one_blas_thread
+from testbed.runner import one_blas_thread
 from testbed.runner import prepare, run_scenario
 from testbed.scenario.loading import load_scenario
 

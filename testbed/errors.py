@@ -6,7 +6,7 @@ import reprlib
 import numpy as np
 
 from testbed.exit_guard import ExitCalled
-from testbed.cli.interrupts import from_a_signal
+from testbed.interrupts import from_a_signal
 
 _REPR = reprlib.Repr()
 _REPR.maxlevel, _REPR.maxlist, _REPR.maxdict, _REPR.maxstring, _REPR.maxother, _REPR.maxlong = 3, 6, 4, 60, 60, 40

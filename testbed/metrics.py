@@ -15,7 +15,7 @@ import numpy as np
 from testbed import pipeline
 from testbed.systems.registry import is_free_flying
 from testbed.errors import InputError, described, error_line
-from testbed.cli.interrupts import from_a_signal
+from testbed.interrupts import from_a_signal
 from testbed.recording.reductions import First, Last, MaxDistanceFromFirst, MaxNorm
 from testbed.registry import Registry
 

@@ -27,7 +27,7 @@ import numpy as np
 
 from testbed.errors import InputError, described, quoted, refused_as
 from testbed.exit_guard import os_exit_raises
-from testbed.cli.interrupts import from_a_signal
+from testbed.interrupts import from_a_signal
 from testbed.registry import Registry
 
 SLOTS = ("sensor", "estimator", "law", "allocator")

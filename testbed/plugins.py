@@ -28,7 +28,7 @@ from pathlib import Path
 
 from testbed import exit_guard
 from testbed.errors import InputError, described
-from testbed.cli.interrupts import from_a_signal
+from testbed.interrupts import from_a_signal
 from testbed.math.validation import existing_file
 from testbed.registry import DuplicateName, restore, snapshot
 

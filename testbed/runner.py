@@ -12,18 +12,35 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import scipy.linalg  # noqa: F401  (loads SciPy's own OpenBLAS, so that threadpoolctl finds it)
+from threadpoolctl import ThreadpoolController
 
 from testbed import metrics
 from testbed.recording import trace
 from testbed.references import registry as references_registry
 from testbed.systems import registry as systems_registry
-from testbed.blas_threads import one_blas_thread
 from testbed.errors import InputError, error_line, refused_as
 from testbed.exit_guard import os_exit_raises
 from testbed.pipeline import Pipeline, StageContext, StageFailed, params_dict, stage_infos
 from testbed.plant import SimulationDiverged
 from testbed.recording.recorder import FLUSH_AFTER_S, Chunk, Recorder, Trace
 from testbed.recording.reductions import Reductions
+
+
+_blas_controller: ThreadpoolController | None = None
+
+
+def one_blas_thread():
+    """A context in which every BLAS library of this process runs on the calling thread only
+    (the libraries are listed once, at the first call: about 3 ms)."""
+    # The matrices here have a few rows, yet OpenBLAS hands some to its pool (SciPy's expm in the
+    # gimbal servo, at every plant build), whose threads then spin about 55 ms of CPU on another
+    # core for no speed-up: 6 % of a core during a one-second run, taken from a campaign's other
+    # worker. threadpoolctl limits the pools of every BLAS library loaded in the process.
+    global _blas_controller
+    if _blas_controller is None:
+        _blas_controller = ThreadpoolController()
+    return _blas_controller.limit(limits=1, user_api="blas")
 
 
 @dataclass
@@ -137,7 +154,7 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
 
 
 def _run(scenario, out, progress, keep_data, live, on_prepared) -> RunResult:
-    """`run_scenario`'s body, with one BLAS thread (testbed.blas_threads)."""
+    """`run_scenario`'s body, with one BLAS thread (`one_blas_thread`)."""
     wall0 = time.perf_counter()
     out = trace.output_path(out) if out is not None else None  # refused before the run, not after
     plant, pipeline, reference = prepare(scenario)

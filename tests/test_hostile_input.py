@@ -1188,9 +1188,9 @@ def test_interrupt_at_each_step_of_the_trace_write(cli, monkeypatch, where, inte
     interrupted once, a second call of it (the clean-up's) works."""
     import rerun as rr
 
-    import testbed.cli.interrupts
+    import testbed.interrupts
 
-    exc = KeyboardInterrupt if interrupt == "KeyboardInterrupt" else testbed.cli.interrupts.Terminated
+    exc = KeyboardInterrupt if interrupt == "KeyboardInterrupt" else testbed.interrupts.Terminated
     owner = rr if where == "RecordingStream" else rr.RecordingStream
     original, calls = getattr(owner, where), []
 
@@ -1296,7 +1296,7 @@ class _SignalsWhenCollected:
 def test_a_signal_inside_a_finalizer_is_raised_after_it():
     """In process: the handler, run inside a __del__, does not raise there (Python would drop it)
     but repeats the signal a moment later, outside, where it raises KeyboardInterrupt."""
-    from testbed.cli.interrupts import signals_as_exceptions
+    from testbed.interrupts import signals_as_exceptions
 
     with pytest.raises(KeyboardInterrupt), signals_as_exceptions():
         _SignalsWhenCollected()
@@ -1306,7 +1306,7 @@ def test_a_signal_inside_a_finalizer_is_raised_after_it():
 def test_a_repeat_after_the_block_has_ended_is_dropped():
     """The repeat of a signal handled inside a finalizer just before the block ends would land
     outside it, under the default handler: it is not sent."""
-    from testbed.cli.interrupts import REDELIVERY_DELAY_S, signals_as_exceptions
+    from testbed.interrupts import REDELIVERY_DELAY_S, signals_as_exceptions
 
     with signals_as_exceptions():
         _SignalsWhenCollected()
@@ -1316,7 +1316,7 @@ def test_a_repeat_after_the_block_has_ended_is_dropped():
 def test_a_signal_ignored_at_start_stays_ignored():
     """`nohup testbed run ...` or a background job of a non-interactive shell starts with SIGINT
     ignored: the command line's handlers must not make such a run stoppable by it."""
-    from testbed.cli.interrupts import signals_as_exceptions
+    from testbed.interrupts import signals_as_exceptions
 
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:

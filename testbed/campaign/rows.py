@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Callable
 
 from testbed.errors import described, error_line
-from testbed.cli.interrupts import from_a_signal
+from testbed.interrupts import from_a_signal
 from testbed.scenario.schema import is_number
 from testbed.campaign.cases import Case
 

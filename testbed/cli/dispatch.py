@@ -14,7 +14,7 @@ import warnings
 
 from testbed.cli import campaign, describe, init, inspect_trace, list_scenarios, run
 from testbed.cli.commands import COMMANDS
-from testbed.cli.interrupts import Terminated, signals_as_exceptions
+from testbed.interrupts import Terminated, signals_as_exceptions
 from testbed.errors import InputError
 from testbed.plugins import discover
 
