@@ -7,6 +7,8 @@ from __future__ import annotations
 import dataclasses
 import json
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -26,6 +28,16 @@ def test_the_docs_parameters_page_is_describes_output():
     assert DOCS_PAGE.read_text() == as_markdown(entries(builtin_only=True)), \
         "regenerate: testbed describe --markdown > docs/parameters.md"
 
+
+
+def test_the_parameters_page_does_not_depend_on_what_was_imported_first():
+    """A process that imports one system before the others still lists them by name."""
+    code = ("import testbed.systems.planar, testbed.lebedev.stage\n"
+            "from testbed.cli.describe import as_markdown, entries\n"
+            "print(as_markdown(entries(builtin_only=True)), end='')")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == DOCS_PAGE.read_text()
 
 def test_describe_stage_lists_every_registered_stage_with_every_field_of_its_schema(capsys):
     discover()

@@ -59,6 +59,12 @@ def _stage_returns(slot: str, cls, params_cls) -> str:
     return ", ".join(words) or "no declared keys (its doc says)"
 
 
+def _by_name(registry) -> list[tuple]:
+    """(name, entry) of a registry in the order of the names: the order modules were imported in
+    depends on what the process did before."""
+    return [(key, registry[key]) for key in registry.names()]
+
+
 def entries(kind: str | None = None, name: str | None = None, builtin_only: bool = False) -> list[dict]:
     """Every registered entry of `kind` (all kinds when None), or the one called `name`."""
     from testbed import pipeline
@@ -72,7 +78,7 @@ def entries(kind: str | None = None, name: str | None = None, builtin_only: bool
         raise InputError("describe", f"unknown kind {quoted(kind)} (one of {', '.join(KINDS)})")
     found = []
     if kind in (None, "system"):
-        for key, entry in SYSTEMS.items():
+        for key, entry in _by_name(SYSTEMS):
             found.append({"kind": "system", "name": key, "module": entry.make_plant.__module__,
                           "doc": _first_paragraph(entry.make_plant.__doc__ or entry.params.__doc__),
                           "free_flying": entry.free_flying, "parameters": _parameters(entry.params)})
@@ -82,16 +88,16 @@ def entries(kind: str | None = None, name: str | None = None, builtin_only: bool
             call = next(n for n in ("measure", "estimate", "torque", "allocate") if hasattr(protocols[slot], n))
             arguments = [a for a in inspect.signature(getattr(protocols[slot], call)).parameters if a != "self"]
             reads = f"{call}({', '.join(arguments)})"
-            for key, (params_cls, cls) in pipeline.STAGES[slot].items():
+            for key, (params_cls, cls) in _by_name(pipeline.STAGES[slot]):
                 found.append({"kind": "stage", "name": key, "slot": slot, "module": cls.__module__,
                               "doc": _first_paragraph(cls.__doc__), "reads": reads, "returns": _stage_returns(slot, cls, params_cls),
                               "parameters": _parameters(params_cls)})
     if kind in (None, "metric"):
-        for key, entry in METRICS.items():
+        for key, entry in _by_name(METRICS):
             found.append({"kind": "metric", "name": key, "module": entry.compute.__module__, "doc": entry.doc,
                           "parameters": []})
     if kind in (None, "reference"):
-        for key, entry in REFERENCES.items():
+        for key, entry in _by_name(REFERENCES):
             found.append({"kind": "reference", "name": key, "module": entry.prepare.__module__,
                           "doc": _first_paragraph(entry.prepare.__doc__), "systems": list(entry.systems),
                           "parameters": _parameters(entry.params)})
