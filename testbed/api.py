@@ -21,7 +21,7 @@ from testbed.math.validation import existing_file
 from testbed.runner import RunResult, run_scenario
 from testbed.scenario.loading import Scenario, load_scenario, parse
 from testbed.scenario.yaml_reading import as_loaded
-from testbed.recording.trace import read_rrd, read_signals
+from testbed.recording.trace_reader import read_rrd, read_signals
 
 
 def load(name_or_path: str | Path, overrides: list[str] = ()) -> Scenario:

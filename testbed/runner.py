@@ -17,6 +17,7 @@ from threadpoolctl import ThreadpoolController
 
 from testbed import metrics
 from testbed.recording import trace
+from testbed.recording.output_paths import output_path
 from testbed.references import registry as references_registry
 from testbed.systems import registry as systems_registry
 from testbed.errors import InputError, error_line, refused_as
@@ -156,7 +157,7 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
 def _run(scenario, out, progress, keep_data, live, on_prepared) -> RunResult:
     """`run_scenario`'s body, with one BLAS thread (`one_blas_thread`)."""
     wall0 = time.perf_counter()
-    out = trace.output_path(out) if out is not None else None  # refused before the run, not after
+    out = output_path(out) if out is not None else None  # refused before the run, not after
     plant, pipeline, reference = prepare(scenario)
     if on_prepared is not None:
         on_prepared(plant, pipeline)

@@ -7,7 +7,7 @@ import pytest
 
 from testbed.cli import main
 from testbed.scenario.shipped_files import SCENARIO_DIR
-from testbed.recording.trace import read_rrd
+from testbed.recording.trace_reader import read_rrd
 
 SHORT_GYROSTAT = ["run", "gyrostat_free", "--set", "sim.duration_s=20", "--json"]
 

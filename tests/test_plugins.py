@@ -14,7 +14,7 @@ import pytest
 
 import testbed
 from testbed.cli import main
-from testbed.recording.trace import read_rrd
+from testbed.recording.trace_reader import read_rrd
 
 INERTIA = np.diag([800.0, 1000.0, 1200.0])  # the satellite system's default
 

@@ -94,7 +94,7 @@ def test_the_partial_trace_holds_the_true_samples(killed_run):
     """The signals read back from the killed run equal a complete run of the same scenario
     stopped before the kill, sample for sample."""
     import testbed
-    from testbed.recording.trace import read_signals
+    from testbed.recording.trace_reader import read_signals
 
     folder, _ = killed_run
     partial = next((folder / "out").glob(".killed.rrd.*.partial"))
@@ -266,7 +266,7 @@ def test_an_enveloped_trace_holds_every_full_rate_sample_between_its_min_and_max
     sample of the same run at full rate lies within its block's envelope, the bounds are
     attained (they are the block's extremes, not padded), and the file has fewer rows."""
     import testbed
-    from testbed.recording.trace import read_signals
+    from testbed.recording.trace_reader import read_signals
 
     rng = np.random.default_rng(15)
     inertia = sorted(rng.uniform(200, 2000, 3))  # a body not in the repository, tumbling about a random axis

@@ -13,7 +13,8 @@ import testbed
 from testbed.recording.scene import hinge_poses, moving_parts
 from testbed.systems.cmg_rhombus import ClusterGeometry, CmgRhombusParams, build
 from testbed.systems.cmg_rhombus.momentum_envelope import envelope_points
-from testbed.recording.trace import measure_colors, read_signals
+from testbed.recording.scene_drawing import measure_colors
+from testbed.recording.trace_reader import read_signals
 
 ARM = """<mujoco>
   <worldbody>

@@ -89,7 +89,7 @@ class CampaignTable:
         writes nothing. A last line without its newline (a write cut by a crash) is dropped, so
         its case runs again; any other damage is refused (InputError, README "Results that
         survive"), as is a path of the wrong kind for one of the table's files."""
-        from testbed.recording.trace import output_path
+        from testbed.recording.output_paths import output_path
 
         for path in (self.csv_path, self.parquet_path, self.identity_path):
             output_path(path)  # a directory there would fail only when it is written

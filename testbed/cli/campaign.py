@@ -93,7 +93,7 @@ def load_cases(name: str, overrides: list[str], indices=None):
 
 def output_folder(args, name: str) -> Path:
     """The campaign's folder, refused before anything runs unless it can be written."""
-    from testbed.recording.trace import file_stem, output_path
+    from testbed.recording.output_paths import file_stem, output_path
 
     out = Path(args.out) if args.out else Path("runs") / f"{file_stem(name)}_sweep"
     output_path(out / f"{file_stem(name)}.csv")  # probes that a file can be created there (not under a file)
@@ -168,7 +168,7 @@ def open_table(out: Path, name: str, data: dict, cases, args):
     path of the wrong kind, a damaged table: testbed.campaign.table)."""
     from testbed.campaign.table import CampaignTable, fingerprint, merge_kinds
     from testbed.campaign.rows import expected_row
-    from testbed.recording.trace import file_stem, output_path
+    from testbed.recording.output_paths import file_stem, output_path
 
     for path in summary_files(out):
         output_path(path)  # written only when every case has run
@@ -212,7 +212,7 @@ def _why(row: dict) -> str:
 def _rerun_case(args) -> int:
     """`--case N`: case N alone, in this process, its trace written."""
     from testbed.campaign.rows import run_case
-    from testbed.recording.trace import output_path
+    from testbed.recording.output_paths import output_path
 
     with reserved_for_json(args.json):  # a plug-in's prints go to stderr
         name, _, _, spec = load_campaign(args.scenario, args.set)

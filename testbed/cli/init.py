@@ -16,7 +16,7 @@ from pathlib import Path
 
 from testbed.cli.commands import command
 from testbed.errors import InputError, quoted
-from testbed.recording.trace import check_creatable
+from testbed.recording.output_paths import check_creatable
 
 EXIT_OK = 0
 SCENARIO_FILE, CONTROLLER_FILE = "my_scenario.yaml", "my_controller.py"

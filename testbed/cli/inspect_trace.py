@@ -21,7 +21,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from testbed.recording.trace import read_rrd
+    from testbed.recording.trace_reader import read_rrd
 
     api.read(args.rrd)  # refuses an empty name, a missing, foreign or damaged file (InputError)
     path = Path(args.rrd)

@@ -11,7 +11,8 @@ from testbed import api
 from testbed.cli.commands import command, reported
 from testbed.cli.json_stdout import reserved_for_json
 from testbed.cli.progress import advance_to, progress_bar
-from testbed.recording import live_view, trace
+from testbed.recording import live_view
+from testbed.recording.output_paths import file_stem, output_path
 from testbed.runner import run_scenario
 
 EXIT_OK, EXIT_FAILED = 0, 1
@@ -45,7 +46,7 @@ def add_check_parser(sub) -> None:
 
 def _run_one(name: str, overrides, out: str | None, show_progress: bool, view: bool = False, connect: str | None = None):
     scenario = api.load(name, overrides)
-    out_path = trace.output_path(Path("runs") / f"{trace.file_stem(scenario.name)}.rrd" if out is None else out)
+    out_path = output_path(Path("runs") / f"{file_stem(scenario.name)}.rrd" if out is None else out)
     live = _live_view(view, connect)
     result = _run_loaded(scenario, out_path, show_progress, live)
     if live is not None and not live.complete:
@@ -110,7 +111,7 @@ def check(args) -> int:
         scenarios = [api.load(name) for name in names]  # every one valid before any runs
         for scenario in scenarios:
             prepare(scenario)
-        outs = [trace.output_path(Path(args.out_dir) / f"{trace.file_stem(Path(n).stem)}.rrd", "--out-dir")
+        outs = [output_path(Path(args.out_dir) / f"{file_stem(Path(n).stem)}.rrd", "--out-dir")
                 for n in names]
         show = sys.stderr.isatty() and not args.json
         results = [_run_loaded(scenario, out, show) for scenario, out in zip(scenarios, outs)]

@@ -18,7 +18,7 @@ import numpy as np
 
 from testbed.cli.commands import command
 from testbed.errors import InputError
-from testbed.recording.trace import output_path
+from testbed.recording.output_paths import output_path
 from testbed.systems.cmg_rhombus.cluster import ClusterGeometry
 from testbed.systems.cmg_rhombus.model import CmgRhombusParams, build
 from testbed.systems.cmg_rhombus.momentum_envelope import EXTERNAL, singular_momenta, write_envelope_rrd
