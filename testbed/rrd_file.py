@@ -54,6 +54,16 @@ class FileStream:
         self.rec, self.partial, self.path = rec, partial, Path(path)
         self.pending = False  # a flush was begun and did not end: the writer may be stuck in it
 
+    @classmethod
+    def opened(cls, rec, partial: str, path: Path, footer: bool) -> "FileStream":
+        """`rec` given a file sink on `partial` (Rerun writes the file's header at once: a full
+        disk refuses it here, WriteFailed)."""
+        try:
+            rec.set_sinks(rr.FileSink(partial, write_footer=footer))
+        except RuntimeError as exc:  # "Failed to encode LogMsg: Failed to write: ..."
+            raise WriteFailed(path, write_refusal(Path(path).parent) or f"Rerun's file sink: {exc}") from None
+        return cls(rec, partial, path)
+
     def log(self, *args, **kwargs):
         self.rec.log(*args, **kwargs)
 

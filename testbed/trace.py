@@ -263,8 +263,7 @@ def recording_to(path, application: str = APP_ID, live=None, footer: bool = True
             path.parent.mkdir(parents=True, exist_ok=True)
             handle, partial = partial_beside(path)
             os.close(handle)
-            rec.set_sinks(rr.FileSink(partial, write_footer=footer))  # before logging: nothing buffered
-            rec = FileStream(rec, partial, path)
+            rec = FileStream.opened(rec, partial, path, footer)  # before logging: nothing buffered
         if live is not None:
             from testbed.live_view import Tee
 

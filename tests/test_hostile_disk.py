@@ -110,6 +110,17 @@ def test_a_run_on_a_full_disk_ends_in_one_line_and_leaves_no_trace(full_disk):
     assert files == []  # no .rrd, no .partial, no probe
 
 
+def test_a_run_on_a_disk_full_from_the_start_ends_in_one_line(full_disk):
+    """No room even for the trace's header (Rerun writes it as the file sink opens)."""
+    fill = [sys.executable, "-c", "open('disk/fill', 'wb').write(bytes(8192))"]
+    (_, done), files, _ = full_disk([{"argv": fill, "size": "8k", "timeout": 30},
+                                     {"argv": _testbed_argv("run", "torque_free_tumble", "--set", SHORT, "--out",
+                                                            "disk/run.rrd"), "size": "8k", "timeout": 120}], "full")
+    lines = done["err"].splitlines()
+    assert done["code"] == 1 and len(lines) == 1 and lines[0].endswith(f"run.rrd: {NO_SPACE}"), done["err"][-3000:]
+    assert files == ["fill"]
+
+
 CAMPAIGN_CASES = 12
 
 
