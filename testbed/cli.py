@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import re
 import sys
 import warnings
@@ -16,8 +15,8 @@ from pathlib import Path
 
 from testbed import api, live_view, sweep_cli, trace  # sweep_cli registers the `sweep` subcommand
 from testbed import describe_command, init_command  # noqa: F401  (register `describe` and `init`)
-from testbed.commands import COMMANDS, reported
-from testbed.errors import InputError
+from testbed.commands import COMMANDS, reported, stdout_lost
+from testbed.errors import InputError, WriteFailed
 from testbed.interrupts import Terminated, signals_as_exceptions
 from testbed.json_stdout import reserved_for_json
 from testbed.plugins import discover
@@ -176,6 +175,9 @@ def _cmd_inspect(args) -> int:
         result = info["result"]
         print(f"{path}: scenario {result['scenario']}, status {result['status']}, "
               f"sim_time {info['time_span_s'][0]:g} .. {info['time_span_s'][1]:g} s")
+        if not info["finished"]:
+            cut = f" (its last {info['cut_bytes']} bytes, a message cut short, left out)" if info["cut_bytes"] else ""
+            print(f"partial: the run did not finish; this is what its trace held when it stopped{cut}")
         print("entities:")
         for entity, rows in sorted(info["entities"].items()):
             print(f"  {entity:44s} {rows} rows")
@@ -183,12 +185,13 @@ def _cmd_inspect(args) -> int:
         for name, value in result["metrics"].items():
             print(f"  {name:32s} {value:.6g}")
         _print_checks([(result["scenario"], c) for c in result["checks"]])
-    return reported(EXIT_OK, report)
+    return reported(EXIT_OK if info["finished"] else EXIT_FAILED, report)  # a partial trace is no passed run
 
 
 def main(argv: list[str] | None = None) -> int:
     """The command line; exit status 0 every check passed, 1 a check failed or the run diverged
-    or a stage failed, 2 bad input (one line on stderr, no file written), 130 Ctrl-C, 143 SIGTERM."""
+    or a stage failed or a file could not be written, 2 bad input (one line on stderr, no file
+    written), 130 Ctrl-C, 143 SIGTERM."""
     try:
         with signals_as_exceptions(), warnings.catch_warnings():
             warnings.simplefilter("ignore")  # numerical warnings never reach the terminal raw
@@ -198,14 +201,17 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except WriteFailed as exc:  # a file could not be written (a full disk): the run, if any, is lost
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_FAILED
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
     except Terminated:
         print("terminated", file=sys.stderr)
         return 143
-    except BrokenPipeError:  # the reader of stdout went away where no command's status was known yet
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+    except BrokenPipeError as exc:  # the reader of stdout went away where no command's status was known yet
+        stdout_lost(exc)
         return EXIT_FAILED
 
 

@@ -21,13 +21,14 @@ runs or is written), 130 on Ctrl-C.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import sys
 from pathlib import Path
 
 from testbed.commands import command, reported
-from testbed.errors import InputError
+from testbed.errors import InputError, WriteFailed
 from testbed.json_stdout import reserved_for_json
 from testbed.progress import advance_to, progress_bar
 
@@ -196,12 +197,20 @@ def _run_into(table, done: dict, cases, engine, rrd_dir: Path | None, args) -> l
             advance_to(bar, len(done), failed=failed_before)
             run_cases(todo, rrd_dir=rrd_dir, on_row=table.append, engine=engine, progress=lambda count, total, failed:
                       advance_to(bar, len(done) + count, failed=failed_before + failed))
+        return table.close()
+    except WriteFailed as exc:  # a full disk: one line, the rows the CSV holds are kept for --resume
+        with contextlib.suppress(WriteFailed):
+            table.close()
+        raise WriteFailed(exc.path, f"{exc.reason}; {len(table.rows)} of {len(cases)} cases are kept in "
+                                    f"{table.csv_path}; --resume completes it once there is room") from None
     except BaseException:
-        rows = table.close()
+        try:
+            rows = table.close()
+        except WriteFailed:  # the stop goes on; the CSV holds every row appended
+            rows = list(table.rows)
         print(f"stopped: {len(rows)} of {len(cases)} cases finished, kept in {table.csv_path} and "
               f"{table.parquet_path.name}; --resume runs the other {len(cases) - len(rows)}", file=sys.stderr)
         raise
-    return table.close()
 
 
 def _why(row: dict) -> str:

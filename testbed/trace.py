@@ -32,11 +32,13 @@ import numpy as np
 # A trace written without Rerun's footer (a long run, `recording_to`) is our documented choice:
 # silence the warning Rerun prints for each such file, unless the user set RUST_LOG; and a viewer
 # that goes away mid-run is said once at the end (testbed.live_view), not once a flush by Rerun's
-# gRPC client. Rerun reads it once, when first imported; it is taken out again so that processes
-# started later (a viewer) do not inherit it.
+# gRPC client; a file sink's write error (a full disk) is said once by testbed.rrd_file, naming
+# the file, not by Rerun's file sink and encoder. Rerun reads it once, when first imported; it is
+# taken out again so that processes started later (a viewer) do not inherit it.
 _SILENCED = "RUST_LOG" not in os.environ
 if _SILENCED:
-    os.environ["RUST_LOG"] = "warn,re_log_encoding::rrd::file_sink=error,re_grpc_client=off,re_sdk::recording_stream=off"
+    os.environ["RUST_LOG"] = ("warn,re_log_encoding::rrd::file_sink=off,re_log_encoding::rrd::encoder=off,"
+                              "re_grpc_client=off,re_sdk::recording_stream=off")
 import rerun as rr  # noqa: E402
 if _SILENCED:
     del os.environ["RUST_LOG"]
@@ -45,6 +47,8 @@ import rerun.blueprint as rrb
 from testbed.atomic_file import partial_beside, publish
 from testbed.errors import InputError, quoted
 from testbed.recorder import Chunk, Trace
+from testbed.rrd_file import FileStream
+from testbed.rrd_frames import read_whole_frames
 from testbed.scene import hinge_poses
 
 APP_ID = "gyrodyne-testbed"
@@ -54,6 +58,8 @@ TIMELINE = "sim_time"
 # 10 000 s of cmg_open_loop at its 0.1 s trace period
 FOOTER_MAX_SAMPLES = 100_000
 SCALARS = "Scalars:scalars"
+# the stored result of a run until it finishes (TraceWriter): what a trace left by a killed run says
+UNFINISHED_ERROR = "the run did not finish: this trace holds the chunks written before it stopped"
 NAME_MAX = 255  # bytes in one file or folder name (ext4 and most others)
 
 # Unit and component labels by signal name; a signal not listed is plotted unlabelled.
@@ -160,11 +166,12 @@ class TraceWriter:
         self.path_radius = 0.003 * _extent(space) if space else None  # once: the surfaces hold many points
         self.strips = 0
         unfinished = {"scenario": scenario_name, "sim_s": 0.0, "wall_s": 0.0, "status": "error",
-                      "error": "the run did not finish: this trace holds the chunks written before it stopped",
+                      "error": UNFINISHED_ERROR,
                       "metrics": {}, "checks": []}
         self._log_result(unfinished)
         if scene is not None:
             _write_scene_static(rec, scene)
+        rec.flush()  # from now on the file is a readable, unfinished run, whatever ends the process
 
     def write(self, chunk) -> None:
         """Send one chunk's signals (and the 3D scene at its samples), then flush it out."""
@@ -256,26 +263,27 @@ def recording_to(path, application: str = APP_ID, live=None, footer: bool = True
             path.parent.mkdir(parents=True, exist_ok=True)
             handle, partial = partial_beside(path)
             os.close(handle)
-            rec.set_sinks(rr.FileSink(partial, write_footer=footer))  # before logging: nothing buffered
+            rec = FileStream.opened(rec, partial, path, footer)  # before logging: nothing buffered
         if live is not None:
             from testbed.live_view import Tee
 
             live.open(application, recording_id)
         yield rec if live is None else Tee(rec, live)
         if rec is not None:
-            rec.flush()
-            rec.disconnect()
+            rec.close()
         if partial is not None:
             publish(partial, path)
         if live is not None:
             live.close()
-    except BaseException:
+    except BaseException as error:
         if live is not None:
             live.close(timeout=0.0)  # an interrupted run ends at once, whatever the viewer does
-        if rec is not None:
+        if isinstance(rec, FileStream):
+            rec.close_after(error)
+        elif rec is not None:  # the stream was made, its file not yet
             rec.disconnect()
         if partial is not None:
-            Path(partial).unlink(missing_ok=True)
+            Path(partial).unlink(missing_ok=True)  # a trace the disk could not take is removed too
         raise
 
 
@@ -474,7 +482,15 @@ def _chunks(path: Path):
 
 
 def read_rrd(path: Path) -> dict:
-    """Read back a run: entities, time span, and the stored result (not recomputed)."""
+    """Read back a run: entities, time span, the stored result (not recomputed), `cut_bytes` (of a
+    last message cut short, testbed.rrd_frames) and `finished`: False for the trace of a run that
+    stopped before its end (killed: its stored result is the placeholder, or a message was cut)."""
+    info, cut = read_whole_frames(path, _read_rrd)
+    unfinished = not isinstance(info["result"], dict) or info["result"].get("error") == UNFINISHED_ERROR
+    return info | {"cut_bytes": cut, "finished": cut == 0 and not unfinished}
+
+
+def _read_rrd(path: Path) -> dict:
     entities: dict[str, int] = {}
     t_min, t_max = np.inf, -np.inf
     result = None
@@ -500,7 +516,11 @@ def read_rrd(path: Path) -> dict:
 
 def read_signals(path: Path) -> Trace:
     """Every recorded signal of an `.rrd` written by `TraceWriter`, as a `Trace` (times to the
-    nanosecond the file stores)."""
+    nanosecond the file stores; a file cut mid-message up to its last whole one)."""
+    return read_whole_frames(path, _read_signals)[0]
+
+
+def _read_signals(path: Path) -> Trace:
     parts: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
     for chunk in _chunks(path):
         entity = str(chunk.entity_path).lstrip("/")
