@@ -2,8 +2,8 @@
 
 `Engine()` starts a local cluster inside the command, one single-threaded worker process per
 core (or `workers`); `Engine(scheduler="tcp://HOST:PORT")` submits to a cluster started with
-`dask scheduler` and `dask worker` (README, "Several machines"), refused as bad input
-when nothing answers there within SCHEDULER_TIMEOUT_S or no worker joins.
+`dask scheduler` and `dask worker` (README, "Several machines"). Starting, reaching and
+closing a cluster, within bounds and whatever signal comes: testbed.campaign_cluster.
 
 `results(fn, tasks)` runs fn(*args) for every argument tuple and yields (args, outcome) as each
 finishes: fn's return value, or `WorkerDied` when the worker process running it died twice.
@@ -28,7 +28,6 @@ to their end (a worker thread cannot be stopped), their results unused.
 from __future__ import annotations
 
 import collections
-import logging
 import os
 import signal
 import threading
@@ -39,9 +38,9 @@ from typing import Any, Callable, Iterable, Iterator
 
 from distributed.diagnostics.plugin import WorkerPlugin
 
+from testbed import campaign_cluster
 from testbed.errors import InputError
 
-SCHEDULER_TIMEOUT_S = 5.0     # connecting to --scheduler, and again for its first worker
 RETRIES = 1  # a case whose worker died runs once more
 # No task has finished for this long: ask the scheduler whether any task out is stranded
 # (placed on a worker that died meanwhile, it waits in 'no-worker' for that worker forever).
@@ -50,7 +49,8 @@ POLL_S = 0.05
 DEPTH = 1    # tasks out per worker thread: the one running (module doc)
 # The local scheduler reports a dead worker's task at once (it would otherwise run it again
 # itself, possibly on a worker that is busy): the command retries it, one task per worker.
-LOCAL_CONFIG = {"distributed.scheduler.allowed-failures": 0}
+# Its workers are forked from a fork server that ignores SIGINT (testbed.campaign_cluster).
+LOCAL_CONFIG = {"distributed.scheduler.allowed-failures": 0, "distributed.worker.multiprocessing-method": "forkserver"}
 
 
 @dataclass(frozen=True)
@@ -84,21 +84,20 @@ class Engine:
     def __init__(self, workers: int | None = None, scheduler: str | None = None):
         self.workers = workers or os.cpu_count() or 1
         self.scheduler = scheduler
-        self.client = self.cluster = None
+        self.client = self.cluster = self.config = None
 
     def __enter__(self) -> "Engine":
         import dask
-        from distributed import Client, LocalCluster
 
         if self.scheduler is None:
-            with dask.config.set(LOCAL_CONFIG):
-                # no dashboard; the scheduler's own HTTP endpoint on a free loopback port, not 8787
-                self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
-                                            dashboard_address=None, silence_logs=logging.CRITICAL,
-                                            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})
-                self.client = Client(self.cluster)
+            self.config = dask.config.set(LOCAL_CONFIG)  # for the cluster's life: a restarted worker reads it too
+            try:
+                self.cluster, self.client = campaign_cluster.start_local(self.workers)
+            except BaseException:
+                self.__exit__(None, None, None)
+                raise
         else:
-            self.client = _connect(self.scheduler)
+            self.client = campaign_cluster.connect(self.scheduler)
         try:
             if self.cluster is not None:
                 self.client.register_plugin(LocalWorker())
@@ -106,18 +105,19 @@ class Engine:
                 self.client.run(_warm_up)
         except Exception as exc:  # noqa: BLE001  (a worker that cannot import the testbed)
             self.__exit__(None, None, None)
-            raise InputError("--scheduler" if self.scheduler else "workers",
+            raise InputError("--scheduler" if self.scheduler else "--workers",
                              f"a worker cannot load the testbed: {type(exc).__name__}: {exc}") from None
+        except BaseException:
+            self.__exit__(None, None, None)
+            raise
         return self
 
     def __exit__(self, *exc_info) -> None:
-        for part in (self.client, self.cluster):
-            if part is not None:
-                try:
-                    part.close()
-                except Exception:  # noqa: BLE001  (closing after an interrupt: best effort)
-                    pass
-        self.client = self.cluster = None
+        client, cluster, self.client, self.cluster = self.client, self.cluster, None, None
+        campaign_cluster.close(client, cluster)
+        if self.config is not None:
+            self.config.__exit__(None, None, None)
+            self.config = None
 
     @property
     def worker_count(self) -> int:
@@ -232,21 +232,3 @@ def _stranded(keys: list, dask_scheduler=None) -> list:
     'no-worker', waiting for a worker that is no longer there."""
     tasks = dask_scheduler.tasks
     return [key for key in keys if key not in tasks or tasks[key].state in ("no-worker", "released", "forgotten")]
-
-
-def _connect(address: str):
-    """A client of the scheduler at `address` with at least one worker; bad input otherwise."""
-    from distributed import Client
-
-    try:
-        client = Client(address, timeout=SCHEDULER_TIMEOUT_S)
-    except Exception as exc:  # noqa: BLE001  (refused, timed out, or not a Dask scheduler at all)
-        raise InputError("--scheduler", f"no Dask scheduler answers at {address} within "
-                                        f"{SCHEDULER_TIMEOUT_S:g} s ({type(exc).__name__}: {exc})") from None
-    try:
-        client.wait_for_workers(1, timeout=SCHEDULER_TIMEOUT_S)
-    except Exception:  # noqa: BLE001
-        client.close()
-        raise InputError("--scheduler", f"the Dask scheduler at {address} has no worker "
-                                        f"(none joined within {SCHEDULER_TIMEOUT_S:g} s)") from None
-    return client

@@ -100,18 +100,22 @@ def output_folder(args, name: str) -> Path:
 
 
 def run(args) -> int:
-    workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
-    if workers < 1:
-        raise InputError("--workers", f"must be >= 1, got {workers}")
+    from testbed.campaign_cluster import checked_workers
+
     if args.scheduler is not None and args.workers is not None:
         raise InputError("--workers", "sizes the local cluster; with --scheduler the cluster's own workers run the cases")
+    workers = checked_workers(args.workers) if args.workers is not None else None
     if args.case is not None:
         return _rerun_case(args)
     from testbed.campaign_engine import Engine
 
     name, data, cases = load_cases(args.scenario, args.set)
     out = output_folder(args, name)
-    with Engine(workers, args.scheduler) as engine:  # an unreachable scheduler is refused before any file is written
+    clamped = workers is not None and workers > len(cases)
+    with Engine(min(workers or os.cpu_count() or 1, len(cases)),  # an idle worker only costs its start
+                args.scheduler) as engine:  # an unreachable scheduler is refused before any file is written
+        if clamped:  # after the start: a refused start is its one line
+            print(f"note: --workers {workers} for {len(cases)} cases: started {len(cases)}", file=sys.stderr)
         table, done = open_table(out, name, data, cases, args)
         rows = _run_into(table, done, cases, engine, out if args.rrd else None, args)
     lines = summarise(name, data, rows, cases, out, args)

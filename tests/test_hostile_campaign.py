@@ -1,0 +1,215 @@
+"""Hostile campaigns and plug-ins against the engine (issue 23): nothing waits forever, nothing
+crashes with a traceback, every signal ends the command with its status (README "Exit status").
+
+Each campaign is a few cases of half a second simulated on the satellite with a plug-in law
+(HOSTILE_LAW) that, by its `mode`, runs normally, sleeps forever, exits its process or sends it
+a signal, so a test chooses by a case value which cases misbehave.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import psutil
+import pytest
+import yaml
+
+from testbed.campaign_cluster import SCHEDULER_TIMEOUT_S, max_workers
+from testbed.cli import main
+
+HOSTILE_LAW = '''"""A zero-torque law that misbehaves at its first tick as its mode says."""
+import os
+import signal
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from testbed.pipeline import stage
+from testbed.schema import param
+
+
+@dataclass(kw_only=True)
+class Params:
+    tag: int = param(0)
+    mode: str = param("ok")          # ok | hang | exit | sigint | sigterm
+    misbehave_if_tag_mod3: int = param(-1)  # misbehave only when tag % 3 equals this (-1: always)
+
+
+@stage("law", "hostile.law", Params)
+class HostileLaw:
+    def __init__(self, params, ctx):
+        self.params = params
+
+    def torque(self, t, estimate):
+        p = self.params
+        if p.misbehave_if_tag_mod3 in (-1, p.tag % 3):
+            if p.mode == "hang":
+                while True:
+                    time.sleep(0.05)
+            if p.mode == "exit":
+                os._exit(3)
+            if p.mode in ("sigint", "sigterm"):
+                os.kill(os.getpid(), signal.SIGINT if p.mode == "sigint" else signal.SIGTERM)
+                time.sleep(1)  # the signal is delivered meanwhile
+        return {"torque": np.zeros(3)}
+'''
+
+
+PLUGIN = {}  # the one plug-in file of the session (a plug-in is imported once per process)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def hostile_law(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("plugin") / "hostile_law.py"
+    path.write_text(HOSTILE_LAW)
+    PLUGIN["path"] = path
+    return path
+
+
+def campaign(tags: int = 2, mode: str = "ok", plugin: str | None = None, **law) -> dict:
+    return {"name": "hostile", "plugins": [plugin or str(PLUGIN["path"])], "model": {"system": "satellite"},
+            "sim": {"duration_s": 0.5, "dt_s": 0.01},
+            "pipeline": {"law": {"type": "hostile.law", "mode": mode, **law}, "allocator": {"type": "ideal_torque"}},
+            "checks": {}, "sweep": {"grid": {"pipeline.law.tag": list(range(tags))}}}
+
+
+@pytest.fixture
+def folder(tmp_path) -> Path:
+    """Where a test writes its campaign file and its output."""
+    return tmp_path
+
+
+def write(folder: Path, data: dict) -> Path:
+    path = folder / "campaign.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def error_lines(err: str) -> list[str]:
+    return [line for line in err.splitlines() if line.strip()]
+
+
+# --- --workers: bounded ---------------------------------------------------------------------
+
+@pytest.mark.parametrize("workers", ["0", str(max_workers() + 1), "99999999999999999999"])
+def test_workers_beyond_the_cap_are_refused(folder, capfd, workers):
+    assert main(["sweep", str(write(folder, campaign())), "--workers", workers, "--out", str(folder / "out")]) == 2
+    err = error_lines(capfd.readouterr().err)
+    assert len(err) == 1 and err[0].startswith(f"error: --workers: must be 1 ... {max_workers()} "), err
+    assert not (folder / "out").exists()
+
+
+def test_more_workers_than_cases_start_one_per_case_with_a_note(folder, capfd):
+    asked = min(3, max_workers())
+    assert main(["sweep", str(write(folder, campaign(tags=2))), "--workers", str(asked), "--out", str(folder / "out")]) == 0
+    out, err = capfd.readouterr()
+    assert error_lines(err) == [f"note: --workers {asked} for 2 cases: started 2"]
+    assert "2 cases, 2 passed, 0 failed" in out
+
+
+def test_a_worker_that_does_not_start_is_one_error_line(folder, capfd, monkeypatch):
+    import testbed.campaign_cluster
+
+    monkeypatch.setattr(testbed.campaign_cluster, "START_TIMEOUT_S", 0.001)  # no worker starts that fast
+    assert main(["sweep", str(write(folder, campaign())), "--workers", "1", "--out", str(folder / "out")]) == 2
+    err = error_lines(capfd.readouterr().err)
+    assert len(err) == 1 and err[0].startswith("error: --workers: the local cluster of 1 worker processes did not start"), err
+    assert not (folder / "out").exists()
+
+
+# --- --scheduler: a port that accepts and never answers ---------------------------------------
+
+def test_a_scheduler_port_that_never_answers_is_refused_within_its_bound(folder, capfd):
+    listener = socket.socket()
+    listener.bind(("127.0.0.1", 0))
+    listener.listen()
+    accepted = []
+
+    def accept_and_say_nothing():
+        while True:
+            try:
+                accepted.append(listener.accept()[0])
+            except OSError:  # closed at the end of the test
+                return
+
+    threading.Thread(target=accept_and_say_nothing, daemon=True).start()
+    address = f"tcp://127.0.0.1:{listener.getsockname()[1]}"
+    path = str(write(folder, campaign()))
+    try:
+        start = time.monotonic()
+        code = main(["sweep", path, "--scheduler", address, "--out", str(folder / "out")])
+        seconds = time.monotonic() - start
+    finally:
+        listener.close()
+        for connection in accepted:
+            connection.close()
+    err = error_lines(capfd.readouterr().err)
+    assert code == 2 and len(err) == 1, err
+    assert err[0].startswith("error: --scheduler: no Dask scheduler answers at ") and address in err[0]
+    assert accepted, "the command never connected"
+    assert seconds < SCHEDULER_TIMEOUT_S + 15  # the handshake's bound, and the scenario's loading
+    assert not (folder / "out").exists()
+
+
+# --- signals while the cluster starts -----------------------------------------------------------
+
+def _cluster_processes(pid: int) -> list:
+    """The command's children that multiprocessing started (fork server, resource tracker, workers)."""
+    try:
+        return [c for c in psutil.Process(pid).children(recursive=True) if "multiprocessing" in " ".join(c.cmdline())]
+    except psutil.Error:
+        return []
+
+
+def _group_members(pgid: int) -> list[int]:
+    members = []
+    for process in psutil.process_iter():
+        try:
+            if os.getpgid(process.pid) == pgid:
+                members.append(process.pid)
+        except (ProcessLookupError, psutil.Error):
+            continue
+    return members
+
+
+@pytest.mark.parametrize("sig, to_group, delay_s, code", [
+    (signal.SIGINT, True, 0.3, 130), (signal.SIGINT, True, 0.8, 130), (signal.SIGINT, True, 1.5, 130),
+    (signal.SIGTERM, False, 0.8, 143)], ids=["ctrl-c-0.3s", "ctrl-c-0.8s", "ctrl-c-1.5s", "sigterm-0.8s"])
+def test_a_signal_while_the_cluster_starts(folder, sig, to_group, delay_s, code):
+    """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) or SIGTERM (to the
+    command) `delay_s` after the command's first multiprocessing child appeared: the command's
+    own status and line, no traceback from distributed or a worker, no process left. (The cases
+    hang: a signal that comes once the cluster is up stops a campaign that cannot end by itself.)"""
+    proc = subprocess.Popen([sys.executable, "-m", "testbed", "sweep", str(write(folder, campaign(mode="hang"))),
+                             "--workers", "2", "--out", str(folder / "out")], cwd=folder, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 120
+        while not _cluster_processes(proc.pid):
+            assert proc.poll() is None and time.monotonic() < deadline, "the cluster never started"
+            time.sleep(0.02)
+        time.sleep(delay_s)
+        os.killpg(proc.pid, sig) if to_group else proc.send_signal(sig)
+        _, err = proc.communicate(timeout=120)
+        deadline = time.monotonic() + 30
+        while _group_members(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        left = _group_members(proc.pid)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert "Traceback" not in err and "Error" not in err, err
+    assert proc.returncode == code, err
+    *before, last = error_lines(err)
+    assert last == ("interrupted" if sig == signal.SIGINT else "terminated"), err
+    assert all(line.startswith("stopped: 0 of 2 cases finished") for line in before), err
+    assert left == [], "processes left behind"
