@@ -6,7 +6,8 @@ core (or `workers`); `Engine(scheduler="tcp://HOST:PORT")` submits to a cluster 
 closing a cluster, within bounds and whatever signal comes: testbed.campaign_cluster.
 
 `results(fn, tasks)` runs fn(*args) for every argument tuple and yields (args, outcome) as each
-finishes: fn's return value, or `WorkerDied` when the worker process running it died twice.
+finishes: fn's return value, or `CaseLost` when the worker process running it died twice, or
+it ran past its timeout twice.
 The command places the tasks itself, DEPTH per worker thread, and the next as one finishes.
 DEPTH is 1: when a worker dies, the task out on it is the one it was running. (With a second
 task waiting on the worker, one that had finished but whose result died with the worker was
@@ -47,6 +48,7 @@ RETRIES = 1  # a case whose worker died runs once more
 STALL_S = 2.0
 POLL_S = 0.05
 DEPTH = 1    # tasks out per worker thread: the one running (module doc)
+NO_WORKER_S = 2 * campaign_cluster.START_TIMEOUT_S  # no worker at all this long: the cases left cannot run
 # The local scheduler reports a dead worker's task at once (it would otherwise run it again
 # itself, possibly on a worker that is busy): the command retries it, one task per worker.
 # Its workers are forked from a fork server that ignores SIGINT (testbed.campaign_cluster).
@@ -54,10 +56,15 @@ LOCAL_CONFIG = {"distributed.scheduler.allowed-failures": 0, "distributed.worker
 
 
 @dataclass(frozen=True)
-class WorkerDied:
-    """The outcome of a task whose worker process died (twice, on the local cluster)."""
+class CaseLost:
+    """The outcome of a task that gave no result: its worker process died running it (twice,
+    on the local cluster), or it ran past its timeout twice."""
 
     reason: str
+
+
+def _times(count: int) -> str:
+    return {1: "once", 2: "twice"}.get(count, f"{count} times")
 
 
 def _warm_up() -> str:
@@ -123,18 +130,22 @@ class Engine:
     def worker_count(self) -> int:
         return len(self.client.scheduler_info(n_workers=-1)["workers"])
 
-    def results(self, fn: Callable, tasks: Iterable[tuple], name: Callable[[tuple], str] = str
-                ) -> Iterator[tuple[tuple, Any]]:
-        """(args, fn(*args) or WorkerDied) for every argument tuple in `tasks`, in the order they
+    def results(self, fn: Callable, tasks: Iterable[tuple], name: Callable[[tuple], str] = str,
+                timeout_s: Callable[[tuple], float | None] = lambda args: None) -> Iterator[tuple[tuple, Any]]:
+        """(args, fn(*args) or CaseLost) for every argument tuple in `tasks`, in the order they
         finish; name(args) names the task (uniquely) on the scheduler. Each worker thread has
         DEPTH tasks out; when a worker dies, its oldest task is the one
-        that killed it, handed out RETRIES times more, and the others go back in the queue
-        (module doc)."""
+        that killed it, handed out RETRIES times more, and the others go back in the queue;
+        a task out for longer than timeout_s(args) is given up and handed out RETRIES times
+        more (module doc)."""
         from distributed import KilledWorker, as_completed
 
         batch = uuid.uuid4().hex[:8]  # keys stay unique on a scheduler shared by several campaigns
         pending = collections.deque(tasks)  # a case handed out again goes first
         deaths: dict[str, int] = {}         # name -> how often a worker died running it
+        overruns: dict[str, int] = {}       # name -> how often it ran past its timeout
+        stuck: collections.Counter = collections.Counter()  # external worker -> threads held by a task given up
+        ended: set[str] = set()             # local workers this command killed (the scheduler may list them a while)
         out: dict = {}                      # future -> (args, worker address, when handed out [monotonic s])
         queues: dict[str, list] = {}        # worker address -> its futures, oldest first
         blame: dict = {}                    # future out on a worker that died -> whether it was the oldest
@@ -143,8 +154,10 @@ class Engine:
 
         def hand_out() -> None:
             for address, worker in self.client.scheduler_info()["workers"].items():
+                if address in ended:
+                    continue
                 queue = queues.setdefault(address, [])
-                while pending and len(queue) < DEPTH * worker["nthreads"]:
+                while pending and len(queue) + stuck[address] < DEPTH * worker["nthreads"]:
                     args = pending.popleft()
                     key = f"{name(args)}-{batch}-{uuid.uuid4().hex[:8]}"  # a case handed out again gets a new key
                     future = self.client.submit(fn, *args, key=key, pure=False, workers=[address],
@@ -171,14 +184,56 @@ class Engine:
                 self.client.cancel([future])
                 pending.appendleft(args)
 
+        def give_up_overdue() -> Iterator[tuple[tuple, CaseLost]]:
+            """Tasks out for longer than their timeout: cancelled, and their worker process
+            killed on the local cluster (its thread cannot be stopped otherwise; its nanny starts
+            it again), or left to its end on an external one, where this command hands that
+            thread nothing more. Handed out again RETRIES times, then a CaseLost."""
+            now = time.monotonic()
+            for future, (args, address, handed) in list(out.items()):
+                bound = timeout_s(args)
+                if bound is None or now - handed <= bound:
+                    continue
+                out.pop(future)
+                blame.pop(future, None)
+                if future in queues.get(address, ()):
+                    queues[address].remove(future)
+                self.client.cancel([future])
+                if self.cluster is not None:
+                    queues.pop(address, None)
+                    ended.add(address)
+                    self.client.run(_end_worker_process, workers=[address], wait=False)
+                else:
+                    stuck[address] += 1
+                overruns[name(args)] = overruns.get(name(args), 0) + 1
+                if overruns[name(args)] <= RETRIES:
+                    pending.appendleft(args)
+                else:
+                    yield args, CaseLost(f"ran longer than the case timeout of {bound:g} s, "
+                                         f"{_times(overruns[name(args)])}")
+
+        def why_none_can_run() -> str | None:
+            """Why no pending task can run, if none can: every worker thread held by a task given
+            up (on an external cluster), or no worker at all for longer than NO_WORKER_S."""
+            info = self.client.scheduler_info()["workers"]
+            if info and all(stuck[a] >= w["nthreads"] for a, w in info.items()):
+                return "not run: every worker thread is still running a case that ran past its timeout"
+            if not info and time.monotonic() - last_finish > NO_WORKER_S:
+                return f"not run: the cluster had no worker for {NO_WORKER_S:g} s"
+            return None
+
         try:
             while pending or out:
                 hand_out()
-                if not out:  # every worker died and none is back yet
+                if not out:  # every worker died and none is back yet, or every thread is held
+                    why = why_none_can_run()
+                    while why and pending:
+                        yield pending.popleft(), CaseLost(why)
                     time.sleep(0.1)
                     continue
                 if not finished.has_ready():  # a bounded wait: a task can be stranded (hand_back_stranded)
                     _wait_a_little(finished)
+                    yield from give_up_overdue()
                     if time.monotonic() - last_finish > STALL_S:
                         hand_back_stranded()
                         last_finish = time.monotonic()
@@ -197,7 +252,7 @@ class Engine:
                     # is the one that killed it, whatever order the others are reported in
                     dead = queues.pop(address, [])
                     blame.update({f: i == 0 for i, f in enumerate(dead)})
-                culprit = blame.pop(future, False)
+                culprit = blame.pop(future, False) and address not in ended  # not one this command killed
                 if future in queues.get(address, ()):
                     queues[address].remove(future)
                 if failed:  # outcome is (type, exception, traceback)
@@ -208,11 +263,17 @@ class Engine:
                     if not culprit or deaths[name(args)] <= RETRIES:  # one that waited behind it is not to blame
                         pending.appendleft(args)
                         continue
-                    outcome = WorkerDied(f"the worker process died running it, {deaths[name(args)]} times")
+                    outcome = CaseLost(f"the worker process died running it, {deaths[name(args)]} times")
                 yield args, outcome
         finally:
             if out:
                 self.client.cancel(list(out))
+
+
+async def _end_worker_process() -> None:
+    """Run on a worker's event loop (`client.run`, beside its busy thread): its process ends, and
+    its nanny starts another."""
+    os._exit(1)
 
 
 def _wait_a_little(finished) -> None:

@@ -2,7 +2,7 @@
 parallel, into a table; or rerun one case alone.
 
     testbed sweep SCENARIO [--workers N | --scheduler tcp://HOST:PORT] [--out DIR] [--resume]
-                           [--rrd] [--set KEY.PATH=VALUE] [--json]
+                           [--case-timeout SECONDS] [--rrd] [--set KEY.PATH=VALUE] [--json]
     testbed sweep SCENARIO --case N [--out DIR] [--set ...] [--json]
 
 Every case is validated and built (and what it would run with read back, testbed.readback)
@@ -42,6 +42,9 @@ def add_parser(subparsers) -> None:
                    help="worker processes of the local cluster (default: one per core)")
     p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                    help="run on the Dask cluster of this scheduler instead of a local one")
+    p.add_argument("--case-timeout", metavar="SECONDS", default=None,
+                   help="give up on a case that runs longer (twice: an error row); default from the "
+                        "scenario: 60 s + 1 ms per physics step")
     p.add_argument("--out", help="output directory (default runs/<scenario>_sweep)")
     p.add_argument("--rrd", action="store_true", help="also write one .rrd per case")
     p.add_argument("--case", type=int, default=None, metavar="N",
@@ -69,15 +72,17 @@ def load_campaign(name: str, overrides: list[str]):
 def build_and_read_back(scenario, values: dict) -> dict:
     """Build a case as its run will (testbed.runner.prepare) and check that every value set
     reaches the built plant and stages (testbed.readback.NotApplied otherwise); returns what
-    its row will hold: the read-back values, the names of its metrics and of its checks."""
+    its row will hold: the read-back values, the names of its metrics and of its checks; and how
+long it may run (testbed.case_timeout)."""
     from testbed.metrics import available
+    from testbed.case_timeout import case_timeout_s
     from testbed.readback import applied_values, check_applied
     from testbed.runner import prepare
 
     plant, pipeline, _ = prepare(scenario)
     applied = applied_values(values, scenario, plant, pipeline.stages())
     check_applied(values, applied)
-    return {"applied": applied, "metrics": available(scenario),
+    return {"applied": applied, "metrics": available(scenario), "timeout_s": case_timeout_s(scenario),
             "checks": {name: {"max": limit.max, "min": limit.min} for name, limit in scenario.checks.items()}}
 
 
@@ -101,7 +106,9 @@ def output_folder(args, name: str) -> Path:
 
 def run(args) -> int:
     from testbed.campaign_cluster import checked_workers
+    from testbed.case_timeout import checked_case_timeout
 
+    case_timeout = checked_case_timeout(args.case_timeout) if args.case_timeout is not None else None
     if args.scheduler is not None and args.workers is not None:
         raise InputError("--workers", "sizes the local cluster; with --scheduler the cluster's own workers run the cases")
     workers = checked_workers(args.workers) if args.workers is not None else None
@@ -117,7 +124,7 @@ def run(args) -> int:
         if clamped:  # after the start: a refused start is its one line
             print(f"note: --workers {workers} for {len(cases)} cases: started {len(cases)}", file=sys.stderr)
         table, done = open_table(out, name, data, cases, args)
-        rows = _run_into(table, done, cases, engine, out if args.rrd else None, args)
+        rows = _run_into(table, done, cases, engine, out if args.rrd else None, args, case_timeout)
     lines = summarise(name, data, rows, cases, out, args)
 
     def report():
@@ -171,7 +178,7 @@ def open_table(out: Path, name: str, data: dict, cases, args):
     return table, table.open(args.resume)
 
 
-def _run_into(table, done: dict, cases, engine, rrd_dir: Path | None, args) -> list[dict]:
+def _run_into(table, done: dict, cases, engine, rrd_dir: Path | None, args, case_timeout_s: float | None) -> list[dict]:
     """Run the cases the table does not hold yet (`done`), each row into it as its case
     finishes; on Ctrl-C (or any failure) the table is closed with every finished row, then the
     stop goes on."""
@@ -183,8 +190,8 @@ def _run_into(table, done: dict, cases, engine, rrd_dir: Path | None, args) -> l
         with progress_bar(f"sweep {table.csv_path.stem}", len(cases), "cases") as bar:
             bar.disable = bar.disable or args.json
             advance_to(bar, len(done), failed=failed_before)
-            run_cases(todo, rrd_dir=rrd_dir, on_row=table.append, engine=engine, progress=lambda count, total, failed:
-                      advance_to(bar, len(done) + count, failed=failed_before + failed))
+            run_cases(todo, rrd_dir=rrd_dir, on_row=table.append, engine=engine, case_timeout_s=case_timeout_s,
+                      progress=lambda count, total, failed: advance_to(bar, len(done) + count, failed=failed_before + failed))
     except BaseException:
         rows = table.close()
         print(f"stopped: {len(rows)} of {len(cases)} cases finished, kept in {table.csv_path} and "

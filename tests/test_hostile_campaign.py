@@ -35,11 +35,13 @@ import numpy as np
 from testbed.pipeline import stage
 from testbed.schema import param
 
+MIXED = ("exit", "sigterm", "sigint")  # mode "mixed": by tag // 3
+
 
 @dataclass(kw_only=True)
 class Params:
     tag: int = param(0)
-    mode: str = param("ok")          # ok | hang | exit | sigint | sigterm
+    mode: str = param("ok")          # ok | hang | exit | sigint | sigterm | mixed
     misbehave_if_tag_mod3: int = param(-1)  # misbehave only when tag % 3 equals this (-1: always)
 
 
@@ -51,13 +53,14 @@ class HostileLaw:
     def torque(self, t, estimate):
         p = self.params
         if p.misbehave_if_tag_mod3 in (-1, p.tag % 3):
-            if p.mode == "hang":
+            mode = MIXED[p.tag // 3 % 3] if p.mode == "mixed" else p.mode
+            if mode == "hang":
                 while True:
                     time.sleep(0.05)
-            if p.mode == "exit":
+            if mode == "exit":
                 os._exit(3)
-            if p.mode in ("sigint", "sigterm"):
-                os.kill(os.getpid(), signal.SIGINT if p.mode == "sigint" else signal.SIGTERM)
+            if mode in ("sigint", "sigterm"):
+                os.kill(os.getpid(), signal.SIGINT if mode == "sigint" else signal.SIGTERM)
                 time.sleep(1)  # the signal is delivered meanwhile
         return {"torque": np.zeros(3)}
 '''
@@ -213,3 +216,60 @@ def test_a_signal_while_the_cluster_starts(folder, sig, to_group, delay_s, code)
     assert last == ("interrupted" if sig == signal.SIGINT else "terminated"), err
     assert all(line.startswith("stopped: 0 of 2 cases finished") for line in before), err
     assert left == [], "processes left behind"
+
+
+def rows_of(folder: Path) -> list[dict]:
+    import csv
+
+    with open(folder / "out" / "hostile.csv", newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+# --- a case that runs forever -----------------------------------------------------------------
+
+def test_a_case_that_runs_forever_is_given_up_twice_then_an_error_row(folder, capfd):
+    """Case 1 sleeps forever: after 3 s its worker process is killed (a worker thread cannot be
+    stopped) and the case handed out again; after 3 s more it is an error row; the others pass."""
+    path = write(folder, campaign(tags=3, mode="hang", misbehave_if_tag_mod3=1))
+    start = time.monotonic()
+    code = main(["sweep", str(path), "--workers", "2", "--case-timeout", "3", "--out", str(folder / "out")])
+    seconds = time.monotonic() - start
+    out, err = capfd.readouterr()
+    assert code == 1 and "Traceback" not in err, err
+    assert "3 cases, 2 passed, 1 failed" in out
+    assert [(r["status"], r["error"]) for r in rows_of(folder)] == [
+        ("ok", ""), ("error", "ran longer than the case timeout of 3 s, twice"), ("ok", "")]
+    assert seconds < 240, seconds  # two timeouts and a worker's restart, however loaded the machine
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "nan", "inf", "1e400", "three"])
+def test_a_case_timeout_that_is_not_a_positive_finite_number_is_refused(folder, capfd, value):
+    assert main(["sweep", str(write(folder, campaign())), f"--case-timeout={value}", "--out", str(folder / "out")]) == 2
+    err = error_lines(capfd.readouterr().err)
+    assert err == [f"error: --case-timeout: must be a positive finite number of seconds, got '{value}'"]
+    assert not (folder / "out").exists()
+
+
+def test_the_default_case_timeout_follows_the_scenario():
+    """60 s to start, 1 ms a physics step (testbed.case_timeout)."""
+    from testbed.api import load
+    from testbed.case_timeout import case_timeout_s
+
+    assert case_timeout_s(load("reorient_campaign")) == pytest.approx(60 + 85 / 0.002 * 1e-3)
+
+
+# --- workers that die -------------------------------------------------------------------------
+
+@pytest.mark.slow
+@pytest.mark.parametrize("workers", [1, 2])
+def test_cases_that_end_their_worker_are_the_only_error_rows(folder, capfd, workers):
+    """12 cases; tags 2, 5, 8, 11 misbehave: os._exit, SIGTERM to their process, SIGINT to it,
+    os._exit. A worker ignores SIGINT (Ctrl-C is the command's), so case 8 runs to its end; the
+    three others kill their worker twice and are error rows; no other case is blamed."""
+    path = write(folder, campaign(tags=12, mode="mixed", misbehave_if_tag_mod3=2))
+    code = main(["sweep", str(path), "--workers", str(workers), "--out", str(folder / "out")])
+    out, err = capfd.readouterr()
+    assert code == 1 and "Traceback" not in err, err
+    errors = {int(r["case"]): r["error"] for r in rows_of(folder) if r["status"] != "ok"}
+    assert errors == dict.fromkeys([2, 5, 11], "the worker process died running it, 2 times"), errors
+    assert "12 cases, 9 passed, 3 failed" in out
