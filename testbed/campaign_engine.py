@@ -76,6 +76,20 @@ def _warm_up() -> str:
     return "ready"
 
 
+def _load_plugins(entries: list[str], base: str) -> tuple[str, str] | None:
+    """Run in a worker: import the plug-ins; (field, reason) if one cannot be (an InputError
+    does not pickle: its arguments are not its constructor's)."""
+    from pathlib import Path
+
+    from testbed.plugins import load_plugins
+
+    try:
+        load_plugins(entries, Path(base))
+    except InputError as exc:
+        return exc.field, exc.reason
+    return None
+
+
 class LocalWorker(WorkerPlugin):
     """Set up every worker process of the local cluster, a restarted one too: Ctrl-C on the
     terminal reaches the whole process group, so the workers ignore it and the command stops
@@ -125,6 +139,19 @@ class Engine:
         if self.config is not None:
             self.config.__exit__(None, None, None)
             self.config = None
+
+    def load_plugins(self, entries: list[str], base: str) -> None:
+        """Import a scenario's plug-ins (testbed.plugins.load_plugins) in every worker now, so
+        that one a worker cannot load is bad input naming the plug-in and the worker, before any
+        case runs (not an error row in every case)."""
+        try:
+            failures = self.client.run(_load_plugins, entries, base)
+        except Exception as exc:  # noqa: BLE001  (a worker gone meanwhile, a comm error)
+            raise InputError("plugins", f"the workers cannot load {entries}: {type(exc).__name__}: {exc}") from None
+        for address, failure in sorted(failures.items()):
+            if failure is not None:
+                field, reason = failure
+                raise InputError(field, f"worker {address} cannot load it: {reason}")
 
     @property
     def worker_count(self) -> int:

@@ -62,7 +62,7 @@ def load_campaign(name: str, overrides: list[str]):
     from testbed.scenario import apply_override, read_yaml, resolve_path
     from testbed.sweep_spec import load_spec
 
-    path = resolve_path(name)
+    path = resolve_path(name).resolve()  # its plug-in paths are relative to it, in any worker's cwd
     data = read_yaml(path)
     for assignment in overrides:
         apply_override(data, assignment)
@@ -121,6 +121,9 @@ def run(args) -> int:
     clamped = workers is not None and workers > len(cases)
     with Engine(min(workers or os.cpu_count() or 1, len(cases)),  # an idle worker only costs its start
                 args.scheduler) as engine:  # an unreachable scheduler is refused before any file is written
+        for entries, source in {(tuple(case.data.get("plugins") or ()), case.source) for case in cases}:
+            if entries:
+                engine.load_plugins(list(entries), str(Path(source).parent))
         if clamped:  # after the start: a refused start is its one line
             print(f"note: --workers {workers} for {len(cases)} cases: started {len(cases)}", file=sys.stderr)
         table, done = open_table(out, name, data, cases, args)

@@ -69,10 +69,19 @@ class HostileLaw:
 PLUGIN = {}  # the one plug-in file of the session (a plug-in is imported once per process)
 
 
+# Imports in this process; in a worker started with REFUSING_WORKER set it fails.
+WORKER_REFUSED = '''import os
+import testbed
+if os.environ.get("REFUSING_WORKER"):
+    raise RuntimeError("this worker refuses the plug-in")
+'''
+
+
 @pytest.fixture(scope="session", autouse=True)
 def hostile_law(tmp_path_factory) -> Path:
     path = tmp_path_factory.mktemp("plugin") / "hostile_law.py"
     path.write_text(HOSTILE_LAW)
+    (path.parent / "worker_refused.py").write_text(WORKER_REFUSED)
     PLUGIN["path"] = path
     return path
 
@@ -273,3 +282,65 @@ def test_cases_that_end_their_worker_are_the_only_error_rows(folder, capfd, work
     errors = {int(r["case"]): r["error"] for r in rows_of(folder) if r["status"] != "ok"}
     assert errors == dict.fromkeys([2, 5, 11], "the worker process died running it, 2 times"), errors
     assert "12 cases, 9 passed, 3 failed" in out
+
+
+# --- a hand-started cluster, in another cwd ----------------------------------------------------
+
+@pytest.fixture(scope="module")
+def external_cluster(tmp_path_factory):
+    """`dask scheduler` on a free loopback port and one single-threaded `dask worker`, both
+    started in a folder of their own (not the campaign's) with REFUSING_WORKER set; stopped after."""
+    cwd = tmp_path_factory.mktemp("elsewhere")
+    scheduler_file = cwd / "scheduler.json"
+    dask = Path(sys.executable).with_name("dask")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path), REFUSING_WORKER="1")
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "env": env, "cwd": cwd}
+    processes = [subprocess.Popen([str(dask), "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                                   "--scheduler-file", str(scheduler_file)], **quiet)]
+    try:
+        deadline = time.monotonic() + 120
+        while not scheduler_file.exists() or not scheduler_file.read_text().strip():
+            assert time.monotonic() < deadline and processes[0].poll() is None, "the scheduler did not start"
+            time.sleep(0.1)
+        processes.append(subprocess.Popen([str(dask), "worker", "--scheduler-file", str(scheduler_file), "--nthreads", "1",
+                                           "--nworkers", "1", "--no-dashboard"], **quiet))
+        import json
+
+        from distributed import Client
+
+        address = json.loads(scheduler_file.read_text())["address"]
+        with Client(address, timeout=60) as client:  # the worker is there before the first test
+            client.wait_for_workers(1, timeout=120)
+        yield address
+    finally:
+        for process in reversed(processes):
+            process.send_signal(signal.SIGTERM)
+        for process in processes:
+            try:
+                process.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
+
+
+def test_a_plugin_named_relative_to_the_scenario_loads_in_a_worker_elsewhere(external_cluster, folder, capfd, monkeypatch):
+    """The scenario names its plug-in "hostile_law.py" and is itself named relative to the cwd;
+    the worker runs in another folder: every case runs (before: every row "no such plug-in file")."""
+    data = campaign(tags=2, plugin="hostile_law.py")
+    (PLUGIN["path"].parent / "relative.yaml").write_text(yaml.safe_dump(data))
+    monkeypatch.chdir(PLUGIN["path"].parent)
+    code = main(["sweep", "relative.yaml", "--scheduler", external_cluster, "--out", str(folder / "out")])
+    out, err = capfd.readouterr()
+    assert code == 0, err
+    assert [(r["status"], r["error"]) for r in rows_of(folder)] == [("ok", ""), ("ok", "")]
+
+
+def test_a_plugin_a_worker_cannot_load_is_refused_before_any_case_runs(external_cluster, folder, capfd):
+    data = campaign(tags=2)
+    data["plugins"].append(str(PLUGIN["path"].parent / "worker_refused.py"))
+    code = main(["sweep", str(write(folder, data)), "--scheduler", external_cluster, "--out", str(folder / "out")])
+    err = error_lines(capfd.readouterr().err)
+    assert code == 2 and len(err) == 1, err
+    assert err[0].startswith("error: plugins[1]: worker tcp://127.0.0.1:") and "cannot load it: " in err[0], err
+    assert "worker_refused.py:4: RuntimeError: this worker refuses the plug-in" in err[0], err
+    assert not (folder / "out").exists()
