@@ -21,6 +21,13 @@ an error row; the one that waited behind it goes back in the queue, not counted.
 fetched in the background as tasks finish and released once taken. A task placed on a worker
 that died meanwhile can wait on the scheduler for that worker forever ('no-worker'); when no
 task has finished for STALL_S the command asks the scheduler, and hands such tasks out again.
+A task out for longer than timeout_s(args) (testbed.case_timeout), counted from when its try
+was first handed out, is given up: on the local cluster its worker process is ended from its
+event loop (a thread running a task cannot be stopped; the nanny starts another), and a task
+out on a worker so ended is not blamed for its death; on an external cluster that thread
+runs on and this command gives it nothing more. It is handed out RETRIES times more, then a
+CaseLost. Cases that no worker can take (every thread so held, or no worker for NO_WORKER_S)
+become CaseLost rather than wait forever.
 Ctrl-C (or any exception in the caller's loop) cancels the cases out; leaving the `with`
 block closes the local cluster, stopping them. On an external cluster the ones running go on
 to their end (a worker thread cannot be stopped), their results unused.
@@ -173,6 +180,7 @@ class Engine:
         overruns: dict[str, int] = {}       # name -> how often it ran past its timeout
         stuck: collections.Counter = collections.Counter()  # external worker -> threads held by a task given up
         ended: set[str] = set()             # local workers this command killed (the scheduler may list them a while)
+        attempt: dict[str, float] = {}      # name -> when its current try was first handed out (kept when stranded)
         out: dict = {}                      # future -> (args, worker address, when handed out [monotonic s])
         queues: dict[str, list] = {}        # worker address -> its futures, oldest first
         blame: dict = {}                    # future out on a worker that died -> whether it was the oldest
@@ -190,6 +198,7 @@ class Engine:
                     future = self.client.submit(fn, *args, key=key, pure=False, workers=[address],
                                                 allow_other_workers=True)
                     out[future] = (args, address, time.monotonic())
+                    attempt.setdefault(name(args), time.monotonic())
                     queue.append(future)
                     finished.add(future)
 
@@ -200,10 +209,10 @@ class Engine:
             if not old:
                 return
             try:
-                stuck = set(self.client.run_on_scheduler(_stranded, [f.key for f in old]))
+                stranded = set(self.client.run_on_scheduler(_stranded, [f.key for f in old]))
             except Exception:  # noqa: BLE001  (a scheduler that runs no code of ours: wait on)
                 return
-            for future in [f for f in old if f.key in stuck]:
+            for future in [f for f in old if f.key in stranded]:
                 args, address, _ = out.pop(future)
                 blame.pop(future, None)
                 if future in queues.get(address, ()):
@@ -219,8 +228,9 @@ class Engine:
             now = time.monotonic()
             for future, (args, address, handed) in list(out.items()):
                 bound = timeout_s(args)
-                if bound is None or now - handed <= bound:
+                if bound is None or now - attempt.get(name(args), handed) <= bound:
                     continue
+                attempt.pop(name(args), None)
                 out.pop(future)
                 blame.pop(future, None)
                 if future in queues.get(address, ()):
@@ -255,7 +265,10 @@ class Engine:
                 if not out:  # every worker died and none is back yet, or every thread is held
                     why = why_none_can_run()
                     while why and pending:
-                        yield pending.popleft(), CaseLost(why)
+                        args = pending.popleft()
+                        tried = (f"ran longer than the case timeout of {timeout_s(args):g} s, once; then "
+                                 if overruns.get(name(args)) else "")
+                        yield args, CaseLost(tried + why)
                     time.sleep(0.1)
                     continue
                 if not finished.has_ready():  # a bounded wait: a task can be stranded (hand_back_stranded)
@@ -270,6 +283,7 @@ class Engine:
                     continue
                 last_finish = time.monotonic()
                 args, address, _ = out.pop(future)
+                attempt.pop(name(args), None)  # its try is over: done, or handed out again as a new one
                 failed = future.status == "error"
                 future.release()
                 if isinstance(outcome, BaseException):  # cancelled: the cluster went away
@@ -317,6 +331,8 @@ def _wait_a_little(finished) -> None:
 
 def _stranded(keys: list, dask_scheduler=None) -> list:
     """Of `keys`, those the scheduler cannot run (run on the scheduler): unknown to it, or in
-    'no-worker', waiting for a worker that is no longer there."""
+    'no-worker', waiting for a worker that is no longer there, while another one runs. (With no
+    worker running, as while restarted ones start, a task handed out again would wait the same.)"""
     tasks = dask_scheduler.tasks
-    return [key for key in keys if key not in tasks or tasks[key].state in ("no-worker", "released", "forgotten")]
+    waiting = ("no-worker", "released", "forgotten") if dask_scheduler.running else ("released", "forgotten")
+    return [key for key in keys if key not in tasks or tasks[key].state in waiting]

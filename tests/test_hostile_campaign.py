@@ -344,3 +344,19 @@ def test_a_plugin_a_worker_cannot_load_is_refused_before_any_case_runs(external_
     assert err[0].startswith("error: plugins[1]: worker tcp://127.0.0.1:") and "cannot load it: " in err[0], err
     assert "worker_refused.py:4: RuntimeError: this worker refuses the plug-in" in err[0], err
     assert not (folder / "out").exists()
+
+
+def test_a_case_that_runs_forever_on_an_external_cluster_is_an_error_row(external_cluster, folder, capfd):
+    """Its worker thread cannot be stopped from here: the command stops waiting after 3 s, gives
+    that thread nothing more and, the cluster's one thread held, ends with the rows it has.
+    (Last of the tests on this cluster: its worker stays busy until the fixture stops it.)"""
+    path = write(folder, campaign(tags=2, mode="hang", misbehave_if_tag_mod3=1))
+    start = time.monotonic()
+    code = main(["sweep", str(path), "--scheduler", external_cluster, "--case-timeout", "3", "--out", str(folder / "out")])
+    seconds = time.monotonic() - start
+    err = capfd.readouterr().err
+    assert code == 1 and "Traceback" not in err, err
+    assert [(r["status"], r["error"]) for r in rows_of(folder)] == [("ok", ""), (
+        "error", "ran longer than the case timeout of 3 s, once; then not run: every worker thread is still "
+                 "running a case that ran past its timeout")]
+    assert seconds < 120, seconds
