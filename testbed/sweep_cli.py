@@ -73,7 +73,7 @@ def build_and_read_back(scenario, values: dict) -> dict:
     """Build a case as its run will (testbed.runner.prepare) and check that every value set
     reaches the built plant and stages (testbed.readback.NotApplied otherwise); returns what
     its row will hold: the read-back values, the names of its metrics and of its checks; and how
-long it may run (testbed.case_timeout)."""
+    long it may run (testbed.case_timeout)."""
     from testbed.metrics import available
     from testbed.case_timeout import case_timeout_s
     from testbed.readback import applied_values, check_applied
@@ -121,9 +121,7 @@ def run(args) -> int:
     clamped = workers is not None and workers > len(cases)
     with Engine(min(workers or os.cpu_count() or 1, len(cases)),  # an idle worker only costs its start
                 args.scheduler) as engine:  # an unreachable scheduler is refused before any file is written
-        for entries, source in {(tuple(case.data.get("plugins") or ()), case.source) for case in cases}:
-            if entries:
-                engine.load_plugins(list(entries), str(Path(source).parent))
+        _load_plugins_in_workers(engine, cases)
         if clamped:  # after the start: a refused start is its one line
             print(f"note: --workers {workers} for {len(cases)} cases: started {len(cases)}", file=sys.stderr)
         table, done = open_table(out, name, data, cases, args)
@@ -139,6 +137,14 @@ def run(args) -> int:
               f"table {table.csv_path} (and .parquet), summary in {out / 'summary'}")
         print("\n".join(lines))
     return reported(EXIT_OK if all(r["passed"] for r in rows) else EXIT_FAILED, report)
+
+
+def _load_plugins_in_workers(engine, cases) -> None:
+    """Every plug-in the cases name, imported in every worker before any case runs (InputError
+    naming the plug-in and the worker if one cannot be)."""
+    for entries, source in {(tuple(case.data.get("plugins") or ()), case.source) for case in cases}:
+        if entries:
+            engine.load_plugins(list(entries), str(Path(source).parent))
 
 
 def summarise(name: str, data: dict, rows: list[dict], cases, out: Path, args) -> list[str]:

@@ -193,8 +193,10 @@ def _group_members(pgid: int) -> list[int]:
 
 
 @pytest.mark.parametrize("sig, to_group, delay_s, code", [
-    (signal.SIGINT, True, 0.3, 130), (signal.SIGINT, True, 0.8, 130), (signal.SIGINT, True, 1.5, 130),
-    (signal.SIGTERM, False, 0.8, 143)], ids=["ctrl-c-0.3s", "ctrl-c-0.8s", "ctrl-c-1.5s", "sigterm-0.8s"])
+    pytest.param(signal.SIGINT, True, 0.3, 130, id="ctrl-c-0.3s"),
+    pytest.param(signal.SIGINT, True, 0.8, 130, id="ctrl-c-0.8s", marks=pytest.mark.slow),
+    pytest.param(signal.SIGINT, True, 1.5, 130, id="ctrl-c-1.5s", marks=pytest.mark.slow),
+    pytest.param(signal.SIGTERM, False, 0.8, 143, id="sigterm-0.8s")])
 def test_a_signal_while_the_cluster_starts(folder, sig, to_group, delay_s, code):
     """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) or SIGTERM (to the
     command) `delay_s` after the command's first multiprocessing child appeared: the command's
