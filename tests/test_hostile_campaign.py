@@ -2,7 +2,7 @@
 crashes with a traceback, every signal ends the command with its status (README "Exit status").
 
 Each campaign is a few cases of half a second simulated on the satellite with a plug-in law
-(HOSTILE_LAW) that, by its `mode`, runs normally, sleeps forever, exits its process or sends it
+(HOSTILE_LAW) that, by its `mode`, runs normally, sleeps forever, crashes its process or sends it
 a signal, so a test chooses by a case value which cases misbehave.
 """
 
@@ -41,7 +41,7 @@ MIXED = ("crash", "sigterm", "sigint")  # mode "mixed": by tag // 3
 @dataclass(kw_only=True)
 class Params:
     tag: int = param(0)
-    mode: str = param("ok")          # ok | hang | exit | sigint | sigterm | mixed
+    mode: str = param("ok")          # ok | hang | crash | sigint | sigterm | mixed
     misbehave_if_tag_mod3: int = param(-1)  # misbehave only when tag % 3 equals this (-1: always)
 
 
