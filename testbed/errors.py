@@ -1,4 +1,5 @@
-"""The one error type for bad user input (scenario fields, CLI options), and how it quotes values."""
+"""The error types a command ends with besides a run's own outcome: bad user input (scenario
+fields, CLI options; exit 2) and output that could not be written (exit 1); how they quote values."""
 
 import contextlib
 import reprlib
@@ -8,7 +9,16 @@ import numpy as np
 from testbed.exit_guard import ExitCalled
 from testbed.interrupts import from_a_signal
 
-_REPR = reprlib.Repr()
+
+class _Repr(reprlib.Repr):
+    def repr_int(self, x, level):
+        try:
+            return super().repr_int(x, level)
+        except ValueError:  # more than 4300 decimal digits: Python will not write it out
+            return f"<an integer of {x.bit_length()} bits>"
+
+
+_REPR = _Repr()
 _REPR.maxlevel, _REPR.maxlist, _REPR.maxdict, _REPR.maxstring, _REPR.maxother, _REPR.maxlong = 3, 6, 4, 60, 60, 40
 QUOTE_LIMIT = 80
 
@@ -65,6 +75,21 @@ class InputError(Exception):
         self.field = one_line(field)  # a user's key may be part of it
         self.reason = one_line(reason)  # one line, whatever the user's value held
         super().__init__(f"{self.field}: {self.reason}")
+
+
+class WriteFailed(Exception):
+    """Output that could not be written (a full disk, a stdout on /dev/full): names the file and
+    the system's reason; the CLI prints it on one line, exit 1."""
+
+    def __init__(self, path, reason: str):
+        self.path = one_line(path)
+        self.reason = one_line(reason)
+        super().__init__(f"{self.path}: {self.reason}")
+
+
+def write_failed(path, exc: OSError) -> WriteFailed:
+    """The WriteFailed of an OSError met writing `path` (its strerror, "No space left on device")."""
+    return WriteFailed(path, exc.strerror or str(exc))
 
 
 @contextlib.contextmanager

@@ -75,3 +75,24 @@ def signals_as_exceptions():
         active.clear()
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+
+
+@contextlib.contextmanager
+def signals_held():
+    """Within the block (in the main thread; elsewhere it does nothing): SIGINT and SIGTERM are
+    noted, not handled; at its end the handlers are back and the first signal noted is raised
+    again, so it takes effect there (KeyboardInterrupt, `Terminated`). For code that must not
+    stop half-way, such as Dask starting or closing a cluster, for a bounded time."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    noted: list[int] = []
+    previous = {signum: signal.signal(signum, lambda signum, frame: noted.append(signum))
+                for signum in (signal.SIGINT, signal.SIGTERM) if signal.getsignal(signum) != signal.SIG_IGN}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        if noted:
+            signal.raise_signal(noted[0])

@@ -702,15 +702,13 @@ def _forged_result_rrd(path: Path, text: str) -> Path:
 
 
 @pytest.mark.parametrize("as_json", [False, True])
-@pytest.mark.parametrize("kind", ["foreign", "truncated", "text", "empty", "random_bytes", "bad_json",
+# (a run cut short is read as partial, exit 1: tests/test_hostile_disk.py)
+@pytest.mark.parametrize("kind", ["foreign", "text", "empty", "random_bytes", "bad_json",
                                   "forged_types", "forged_list", "directory"])
 def test_inspect_on_something_that_is_not_a_run(cli, inputs, real_run, kind, as_json):
     path = inputs / f"{kind}.rrd"
     if kind == "foreign":
         _foreign_rrd(path)
-    elif kind == "truncated":
-        data = real_run.read_bytes()
-        path.write_bytes(data[: len(data) // 2])
     elif kind == "text":
         path.write_text("hello, I am not a trace\n")
     elif kind == "empty":

@@ -74,8 +74,9 @@ def test_a_run_killed_with_sigkill_leaves_a_readable_partial_trace(killed_run):
     partials = sorted((folder / "out").glob(".killed.rrd.*.partial"))
     assert len(partials) == 1, partials
     shown = _testbed("inspect", partials[0], "--json", cwd=folder)
-    assert shown.returncode == 0, shown.stderr
+    assert shown.returncode == 1, shown.stderr  # read, but no passed run: it did not finish
     info = json.loads(shown.stdout)
+    assert info["finished"] is False
     # the samples up to the stall at least (the first sample after it is more than
     # FLUSH_AFTER_S of wall time after the last flush), none from the kill on, without a gap
     t_first, t_last = info["time_span_s"]

@@ -81,26 +81,33 @@ def run_case(case: Case, rrd: str | None = None) -> dict:
 
 
 def died_row(case: Case, reason: str) -> dict:
-    """The row of a case whose worker process died running it."""
+    """The row of a case that gave no result (testbed.campaign.engine.CaseLost: its worker died, or it ran too long)."""
     return case_row(case, {}, "error", False, reason)
 
 
 def run_cases(cases: list[Case], workers: int | None = None, rrd_dir: Path | None = None,
               progress: Callable[[int, int, int], None] | None = None, scheduler: str | None = None,
-              on_row: Callable[[dict], None] | None = None, engine=None) -> list[dict]:
+              on_row: Callable[[dict], None] | None = None, engine=None,
+              case_timeout_s: float | None = None) -> list[dict]:
     """Rows for `cases`, in case order, run on `engine` (testbed.campaign.engine.Engine, already
     started), else on one started here: a local cluster of `workers` processes, or the Dask
     scheduler at `scheduler`; `on_row(row)` and `progress(done, total, failed)` after each case,
-    as it finishes."""
-    from testbed.campaign.engine import Engine, WorkerDied
+    as it finishes. A case may run `case_timeout_s`, else the bound its build gave
+    (prepared["timeout_s"], testbed.campaign.case_timeout), else without a bound."""
+    from testbed.campaign.engine import CaseLost, Engine
 
     if engine is None:
         with Engine(workers, scheduler) as started:
-            return run_cases(cases, rrd_dir=rrd_dir, progress=progress, on_row=on_row, engine=started)
+            return run_cases(cases, rrd_dir=rrd_dir, progress=progress, on_row=on_row, engine=started,
+                             case_timeout_s=case_timeout_s)
     tasks = [(case, str(rrd_dir / f"case{case.index:04d}.rrd") if rrd_dir else None) for case in cases]
     rows: dict[int, dict] = {}
-    for (case, _), outcome in engine.results(run_case, tasks, lambda task: f"case{task[0].index}"):
-        row = died_row(case, outcome.reason) if isinstance(outcome, WorkerDied) else outcome
+
+    def timeout_s(task) -> float | None:
+        return case_timeout_s or (task[0].prepared or {}).get("timeout_s")
+
+    for (case, _), outcome in engine.results(run_case, tasks, lambda task: f"case{task[0].index}", timeout_s):
+        row = died_row(case, outcome.reason) if isinstance(outcome, CaseLost) else outcome
         rows[case.index] = row
         if on_row:
             on_row(row)

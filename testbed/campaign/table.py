@@ -27,7 +27,7 @@ import time
 from pathlib import Path
 
 from testbed.recording.atomic_file import atomic_file, write_atomically
-from testbed.errors import InputError, quoted
+from testbed.errors import InputError, quoted, write_failed
 
 PARQUET_EVERY_S = 5.0
 
@@ -158,21 +158,32 @@ class CampaignTable:
     # --- rows as they finish ---------------------------------------------------------------
     def append(self, row: dict) -> None:
         """Record a finished case: its CSV line now, the Parquet file when it is due."""
+        try:
+            self._writer.writerow(_csv_cells(row))
+            self._handle.flush()
+        except OSError as exc:  # a full disk: the rows before stay whole, a cut-off line is dropped on --resume
+            self._close_handle()
+            raise write_failed(self.csv_path, exc) from None
         self.rows[row["case"]] = row
-        self._writer.writerow(_csv_cells(row))
-        self._handle.flush()
         now = time.monotonic()
         if now - self._parquet_at >= max(PARQUET_EVERY_S, 50.0 * self._parquet_cost):
             self._write_parquet()
 
     def close(self) -> list[dict]:
         """Both files sorted by case, complete; returns the rows in case order."""
-        if self._handle is not None:
-            self._handle.close()
-            self._handle = None
+        self._close_handle()
         self._rewrite_csv()
         self._write_parquet()
         return [self.rows[k] for k in sorted(self.rows)]
+
+    def _close_handle(self) -> None:
+        """Close the appended CSV; what a failed write left in its buffer is written if it can be, else dropped."""
+        handle, self._handle = self._handle, None
+        if handle is not None:
+            try:
+                handle.close()
+            except OSError:
+                pass
 
     def _rewrite_csv(self) -> None:
         with atomic_file(self.csv_path) as handle:

@@ -2,7 +2,7 @@
 parallel, into a table; or rerun one case alone.
 
     testbed sweep SCENARIO [--workers N | --scheduler tcp://HOST:PORT] [--out DIR] [--resume]
-                           [--rrd] [--set KEY.PATH=VALUE] [--json]
+                           [--case-timeout SECONDS] [--rrd] [--set KEY.PATH=VALUE] [--json]
     testbed sweep SCENARIO --case N [--out DIR] [--set ...] [--json]
 
 Every case is validated and built (and what it would run with read back, testbed.campaign.applied_values)
@@ -21,13 +21,14 @@ runs or is written), 130 on Ctrl-C.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import sys
 from pathlib import Path
 
 from testbed.cli.commands import command, reported
-from testbed.errors import InputError
+from testbed.errors import InputError, WriteFailed
 from testbed.cli.json_stdout import reserved_for_json
 from testbed.cli.progress import advance_to, progress_bar
 
@@ -43,6 +44,9 @@ def add_parser(subparsers) -> None:
                    help="worker processes of the local cluster (default: one per core)")
     p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                    help="run on the Dask cluster of this scheduler instead of a local one")
+    p.add_argument("--case-timeout", metavar="SECONDS", default=None,
+                   help="give up on a case that runs longer (twice: an error row); default from the "
+                        "scenario: 60 s + 1 ms per physics step")
     p.add_argument("--out", help="output directory (default runs/<scenario>_sweep)")
     p.add_argument("--rrd", action="store_true", help="also write one .rrd per case")
     p.add_argument("--case", type=int, default=None, metavar="N",
@@ -60,7 +64,7 @@ def load_campaign(name: str, overrides: list[str]):
     from testbed.scenario.loading import apply_override, read_yaml, resolve_path
     from testbed.campaign.spec import load_spec
 
-    path = resolve_path(name)
+    path = resolve_path(name).resolve()  # its plug-in paths are relative to it, in any worker's cwd
     data = read_yaml(path)
     for assignment in overrides:
         apply_override(data, assignment)
@@ -70,15 +74,17 @@ def load_campaign(name: str, overrides: list[str]):
 def build_and_read_back(scenario, values: dict) -> dict:
     """Build a case as its run will (testbed.runner.prepare) and check that every value set
     reaches the built plant and stages (testbed.campaign.applied_values.NotApplied otherwise); returns what
-    its row will hold: the read-back values, the names of its metrics and of its checks."""
+    its row will hold: the read-back values, the names of its metrics and of its checks; and how
+    long it may run (testbed.campaign.case_timeout)."""
     from testbed.metrics import available
+    from testbed.campaign.case_timeout import case_timeout_s
     from testbed.campaign.applied_values import applied_values, check_applied
     from testbed.runner import prepare
 
     plant, pipeline, _ = prepare(scenario)
     applied = applied_values(values, scenario, plant, pipeline.stages())
     check_applied(values, applied)
-    return {"applied": applied, "metrics": available(scenario),
+    return {"applied": applied, "metrics": available(scenario), "timeout_s": case_timeout_s(scenario),
             "checks": {name: {"max": limit.max, "min": limit.min} for name, limit in scenario.checks.items()}}
 
 
@@ -101,11 +107,13 @@ def output_folder(args, name: str) -> Path:
 
 
 def run(args) -> int:
-    workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
-    if workers < 1:
-        raise InputError("--workers", f"must be >= 1, got {workers}")
+    from testbed.campaign.cluster import checked_workers
+    from testbed.campaign.case_timeout import checked_case_timeout
+
+    case_timeout = checked_case_timeout(args.case_timeout) if args.case_timeout is not None else None
     if args.scheduler is not None and args.workers is not None:
         raise InputError("--workers", "sizes the local cluster; with --scheduler the cluster's own workers run the cases")
+    workers = checked_workers(args.workers) if args.workers is not None else None
     if args.case is not None:
         return _rerun_case(args)
     from testbed.campaign.engine import Engine
@@ -115,9 +123,14 @@ def run(args) -> int:
         name, data, cases = load_cases(args.scenario, args.set)
         out = output_folder(args, name)
         table, done = open_table(out, name, data, cases, args)  # refuses a damaged folder; writes nothing
-        with Engine(workers, args.scheduler) as engine:  # an unreachable scheduler is refused before any file is written
+        clamped = workers is not None and workers > len(cases)
+        with Engine(min(workers or os.cpu_count() or 1, len(cases)),  # an idle worker only costs its start
+                    args.scheduler) as engine:  # an unreachable scheduler is refused before any file is written
+            _load_plugins_in_workers(engine, cases)
+            if clamped:  # after the start: a refused start is its one line
+                print(f"note: --workers {workers} for {len(cases)} cases: started {len(cases)}", file=sys.stderr)
             table.start()
-            rows = _run_into(table, done, cases, engine, out if args.rrd else None, args)
+            rows = _run_into(table, done, cases, engine, out if args.rrd else None, args, case_timeout)
         lines = summarise(name, data, rows, cases, out, args)
 
     def report():
@@ -129,6 +142,14 @@ def run(args) -> int:
               f"table {table.csv_path} (and .parquet), summary in {out / 'summary'}")
         print("\n".join(lines))
     return reported(EXIT_OK if all(r["passed"] for r in rows) else EXIT_FAILED, report)
+
+
+def _load_plugins_in_workers(engine, cases) -> None:
+    """Every plug-in the cases name, imported in every worker before any case runs (InputError
+    naming the plug-in and the worker if one cannot be)."""
+    for entries, source in {(tuple(case.data.get("plugins") or ()), case.source) for case in cases}:
+        if entries:
+            engine.load_plugins(list(entries), str(Path(source).parent))
 
 
 def summarise(name: str, data: dict, rows: list[dict], cases, out: Path, args) -> list[str]:
@@ -182,7 +203,7 @@ def open_table(out: Path, name: str, data: dict, cases, args):
     return table, table.read(args.resume)
 
 
-def _run_into(table, done: dict, cases, engine, rrd_dir: Path | None, args) -> list[dict]:
+def _run_into(table, done: dict, cases, engine, rrd_dir: Path | None, args, case_timeout_s: float | None) -> list[dict]:
     """Run the cases the table does not hold yet (`done`), each row into it as its case
     finishes; on Ctrl-C (or any failure) the table is closed with every finished row, then the
     stop goes on."""
@@ -194,14 +215,22 @@ def _run_into(table, done: dict, cases, engine, rrd_dir: Path | None, args) -> l
         with progress_bar(f"sweep {table.csv_path.stem}", len(cases), "cases") as bar:
             bar.disable = bar.disable or args.json
             advance_to(bar, len(done), failed=failed_before)
-            run_cases(todo, rrd_dir=rrd_dir, on_row=table.append, engine=engine, progress=lambda count, total, failed:
-                      advance_to(bar, len(done) + count, failed=failed_before + failed))
+            run_cases(todo, rrd_dir=rrd_dir, on_row=table.append, engine=engine, case_timeout_s=case_timeout_s,
+                      progress=lambda count, total, failed: advance_to(bar, len(done) + count, failed=failed_before + failed))
+        return table.close()
+    except WriteFailed as exc:  # a full disk: one line, the rows the CSV holds are kept for --resume
+        with contextlib.suppress(WriteFailed):
+            table.close()
+        raise WriteFailed(exc.path, f"{exc.reason}; {len(table.rows)} of {len(cases)} cases are kept in "
+                                    f"{table.csv_path}; --resume completes it once there is room") from None
     except BaseException:
-        rows = table.close()
+        try:
+            rows = table.close()
+        except WriteFailed:  # the stop goes on; the CSV holds every row appended
+            rows = list(table.rows)
         print(f"stopped: {len(rows)} of {len(cases)} cases finished, kept in {table.csv_path} and "
               f"{table.parquet_path.name}; --resume runs the other {len(cases) - len(rows)}", file=sys.stderr)
         raise
-    return table.close()
 
 
 def _why(row: dict) -> str:

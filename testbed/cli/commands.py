@@ -11,6 +11,7 @@ import os
 import sys
 from typing import Callable
 
+from testbed.errors import one_line
 from testbed.registry import Registry
 
 COMMANDS = Registry("command")
@@ -26,10 +27,19 @@ def command(name: str):
 
 def reported(status: int, report: Callable[[], None]) -> int:
     """`status`, once `report()` has printed the command's output: a reader of stdout that went
-    away (`testbed run ... | head -1`) cuts the output short but leaves the status as it is."""
+    away (`testbed run ... | head -1`) cuts the output short, a stdout that cannot be written
+    (`> /dev/full`) costs one line on stderr, and either way the status stays as it is."""
     try:
         report()
         sys.stdout.flush()
-    except BrokenPipeError:
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+    except OSError as exc:
+        stdout_lost(exc)
     return status
+
+
+def stdout_lost(exc: OSError) -> None:
+    """After a write to stdout failed with `exc`: say why on stderr (a reader that went away is
+    no error) and send the rest of stdout to /dev/null, so that nothing fails again at exit."""
+    if not isinstance(exc, BrokenPipeError):
+        print(f"error: stdout: {one_line(exc.strerror or exc)}", file=sys.stderr)
+    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

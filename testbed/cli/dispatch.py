@@ -8,14 +8,13 @@ line on stderr naming the field and the reason, no traceback, no output file), 1
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import warnings
 
 from testbed.cli import campaign, describe, init, inspect_trace, list_scenarios, run
-from testbed.cli.commands import COMMANDS
+from testbed.cli.commands import COMMANDS, stdout_lost
 from testbed.interrupts import Terminated, signals_as_exceptions
-from testbed.errors import InputError
+from testbed.errors import InputError, WriteFailed
 from testbed.plugins import discover
 
 # The built-in subcommands, in the order `testbed --help` lists them: each module registers its
@@ -42,7 +41,8 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """The command line; exit status 0 every check passed, 1 a check failed or the run diverged
-    or a stage failed, 2 bad input (one line on stderr, no file written), 130 Ctrl-C, 143 SIGTERM."""
+    or a stage failed or a file could not be written, 2 bad input (one line on stderr, no file
+    written), 130 Ctrl-C, 143 SIGTERM."""
     try:
         with signals_as_exceptions(), warnings.catch_warnings():
             warnings.simplefilter("ignore")  # numerical warnings never reach the terminal raw
@@ -51,14 +51,17 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except WriteFailed as exc:  # a file could not be written (a full disk): the run, if any, is lost
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_FAILED
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
     except Terminated:
         print("terminated", file=sys.stderr)
         return 143
-    except BrokenPipeError:  # the reader of stdout went away where no command's status was known yet
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+    except BrokenPipeError as exc:  # the reader of stdout went away where no command's status was known yet
+        stdout_lost(exc)
         return EXIT_FAILED
 
 

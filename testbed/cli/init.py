@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from testbed.cli.commands import command
+from testbed.cli.commands import command, reported
 from testbed.errors import InputError, quoted
 from testbed.recording.output_paths import check_creatable
 
@@ -188,9 +188,10 @@ def run(args) -> int:
     _write_new(controller, CONTROLLER_TEMPLATE)
     _write_new(scenario, SCENARIO_TEMPLATE.format(scenario_path=scenario.as_posix()))
     run_it = f"testbed run {scenario.as_posix()}"
-    print(f"wrote {scenario} (the experiment) and {controller} (your law \"my.controller\")")
-    print("next:")
-    print(f"  {run_it:44s} # runs as it is: exit 0, every check passes")
-    print(f"  {'edit ' + controller.as_posix():44s} # torque(t, estimate) -> wanted body torque [N m]")
-    print(f"  {run_it:44s} # again; the trace is runs/my_scenario.rrd (viewer: rerun runs/my_scenario.rrd)")
-    return EXIT_OK
+    def report():
+        print(f"wrote {scenario} (the experiment) and {controller} (your law \"my.controller\")")
+        print("next:")
+        print(f"  {run_it:44s} # runs as it is: exit 0, every check passes")
+        print(f"  {'edit ' + controller.as_posix():44s} # torque(t, estimate) -> wanted body torque [N m]")
+        print(f"  {run_it:44s} # again; the trace is runs/my_scenario.rrd (viewer: rerun runs/my_scenario.rrd)")
+    return reported(EXIT_OK, report)

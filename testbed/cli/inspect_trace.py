@@ -9,7 +9,7 @@ from testbed import api
 from testbed.cli.commands import command, reported
 from testbed.cli.run import print_checks
 
-EXIT_OK = 0
+EXIT_OK, EXIT_FAILED = 0, 1
 
 
 @command("inspect")
@@ -34,6 +34,9 @@ def run(args) -> int:
         result = info["result"]
         print(f"{path}: scenario {result['scenario']}, status {result['status']}, "
               f"sim_time {info['time_span_s'][0]:g} .. {info['time_span_s'][1]:g} s")
+        if not info["finished"]:
+            cut = f" (its last {info['cut_bytes']} bytes, a message cut short, left out)" if info["cut_bytes"] else ""
+            print(f"partial: the run did not finish; this is what its trace held when it stopped{cut}")
         print("entities:")
         for entity, rows in sorted(info["entities"].items()):
             print(f"  {entity:44s} {rows} rows")
@@ -41,4 +44,4 @@ def run(args) -> int:
         for name, value in result["metrics"].items():
             print(f"  {name:32s} {value:.6g}")
         print_checks([(result["scenario"], c) for c in result["checks"]])
-    return reported(EXIT_OK, report)
+    return reported(EXIT_OK if info["finished"] else EXIT_FAILED, report)  # a partial trace is no passed run

@@ -11,6 +11,8 @@ import os
 import tempfile
 from pathlib import Path
 
+from testbed.errors import write_failed
+
 
 # bytes of the final name kept in the temporary one: with the dots, mkstemp's 8 random
 # characters and ".partial" it stays far inside any file system's 255-byte name limit
@@ -34,7 +36,8 @@ def publish(partial: str, path: Path) -> None:
 
 class atomic_file:
     """`with atomic_file(path) as handle:` a file written under a temporary name beside `path`,
-    renamed onto it when the block ends normally and removed when it raises."""
+    renamed onto it when the block ends normally and removed when it raises; an OSError while
+    writing it (a full disk) becomes testbed.errors.WriteFailed naming `path`."""
 
     def __init__(self, path: Path, binary: bool = False):
         self.path, self.binary = Path(path), binary
@@ -45,11 +48,17 @@ class atomic_file:
         return self.handle
 
     def __exit__(self, kind, value, traceback):
-        self.handle.close()
-        if kind is None:
-            publish(self.partial, self.path)
-        else:
+        try:
+            self.handle.close()  # may fail too: its last buffer is written now
+            if kind is None:
+                publish(self.partial, self.path)
+        except OSError as exc:
             Path(self.partial).unlink(missing_ok=True)
+            raise write_failed(self.path, value if isinstance(value, OSError) else exc) from None
+        if kind is not None:
+            Path(self.partial).unlink(missing_ok=True)
+            if issubclass(kind, OSError):  # a write that failed (a full disk), named by the file
+                raise write_failed(self.path, value) from None
         return False
 
 

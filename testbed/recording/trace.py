@@ -31,6 +31,7 @@ import rerun as rr
 from testbed.recording.atomic_file import partial_beside, publish
 from testbed.recording.blueprint import UNITS, blueprint, series_names
 from testbed.recording.decimation import block_starts, minmax_decimate
+from testbed.recording.rrd_file import FileStream
 from testbed.recording.scene_drawing import MOMENTUM_SPACE, extent, measure_colors, write_scene, write_scene_static
 
 APP_ID = "gyrodyne-testbed"
@@ -40,6 +41,8 @@ TIMELINE = "sim_time"
 # 10 000 s of cmg_open_loop at its 0.1 s trace period
 FOOTER_MAX_SAMPLES = 100_000
 SCALARS = "Scalars:scalars"
+# the stored result of a run until it finishes (TraceWriter): what a trace left by a killed run says
+UNFINISHED_ERROR = "the run did not finish: this trace holds the chunks written before it stopped"
 
 
 class TraceWriter:
@@ -64,11 +67,12 @@ class TraceWriter:
         self.path_radius = 0.003 * extent(space) if space else None  # once: the surfaces hold many points
         self.strips = 0
         unfinished = {"scenario": scenario_name, "sim_s": 0.0, "wall_s": 0.0, "status": "error",
-                      "error": "the run did not finish: this trace holds the chunks written before it stopped",
+                      "error": UNFINISHED_ERROR,
                       "metrics": {}, "checks": []}
         self._log_result(unfinished)
         if scene is not None:
             write_scene_static(rec, scene)
+        rec.flush()  # from now on the file is a readable, unfinished run, whatever ends the process
 
     def write(self, chunk) -> None:
         """Send one chunk's signals (and the 3D scene at its samples), then flush it out."""
@@ -160,26 +164,27 @@ def recording_to(path, application: str = APP_ID, live=None, footer: bool = True
             path.parent.mkdir(parents=True, exist_ok=True)
             handle, partial = partial_beside(path)
             os.close(handle)
-            rec.set_sinks(rr.FileSink(partial, write_footer=footer))  # before logging: nothing buffered
+            rec = FileStream.opened(rec, partial, path, footer)  # before logging: nothing buffered
         if live is not None:
             from testbed.recording.live_view import Tee
 
             live.open(application, recording_id)
         yield rec if live is None else Tee(rec, live)
         if rec is not None:
-            rec.flush()
-            rec.disconnect()
+            rec.close()
         if partial is not None:
             publish(partial, path)
         if live is not None:
             live.close()
-    except BaseException:
+    except BaseException as error:
         if live is not None:
             live.close(timeout=0.0)  # an interrupted run ends at once, whatever the viewer does
-        if rec is not None:
+        if isinstance(rec, FileStream):
+            rec.close_after(error)
+        elif rec is not None:  # the stream was made, its file not yet
             rec.disconnect()
         if partial is not None:
-            Path(partial).unlink(missing_ok=True)
+            Path(partial).unlink(missing_ok=True)  # a trace the disk could not take is removed too
         raise
 
 

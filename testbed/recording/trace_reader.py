@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from testbed.recording.recorder import Trace
-from testbed.recording.trace import RESULT_ENTITY, SCALARS, TIMELINE
+from testbed.recording.rrd_frames import read_whole_frames
+from testbed.recording.trace import RESULT_ENTITY, SCALARS, TIMELINE, UNFINISHED_ERROR
 
 
 def _chunks(path: Path):
@@ -26,7 +27,16 @@ def _chunks(path: Path):
 
 
 def read_rrd(path: Path) -> dict:
-    """Read back a run: entities, time span, and the stored result (not recomputed)."""
+    """Read back a run: entities, time span, the stored result (not recomputed), `cut_bytes` (of a
+    last message cut short, testbed.recording.rrd_frames) and `finished`: False for the trace of a
+    run that stopped before its end (killed: its stored result is the placeholder, or a message
+    was cut)."""
+    info, cut = read_whole_frames(path, _read_rrd)
+    unfinished = not isinstance(info["result"], dict) or info["result"].get("error") == UNFINISHED_ERROR
+    return info | {"cut_bytes": cut, "finished": cut == 0 and not unfinished}
+
+
+def _read_rrd(path: Path) -> dict:
     entities: dict[str, int] = {}
     t_min, t_max = np.inf, -np.inf
     result = None
@@ -52,7 +62,11 @@ def read_rrd(path: Path) -> dict:
 
 def read_signals(path: Path) -> Trace:
     """Every recorded signal of an `.rrd` written by `TraceWriter`, as a `Trace` (times to the
-    nanosecond the file stores)."""
+    nanosecond the file stores; a file cut mid-message up to its last whole one)."""
+    return read_whole_frames(path, _read_signals)[0]
+
+
+def _read_signals(path: Path) -> Trace:
     parts: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
     for chunk in _chunks(path):
         entity = str(chunk.entity_path).lstrip("/")

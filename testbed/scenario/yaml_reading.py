@@ -5,7 +5,8 @@ the refusals a hostile or mistaken file needs, each an InputError naming the fil
 - a key given twice in one mapping (YAML's "last one wins" would silently drop a value);
 - anchors and aliases (`&a`, `*a`): they let a few lines stand for an exponentially large
   document, and a scenario has no use for them;
-- nesting deeper than MAX_DEPTH.
+- nesting deeper than MAX_DEPTH;
+- an integer of more digits than Python reads from text (4300).
 
 YAML 1.1 reads `1e-9` (no dot) as a string; scientists write it, so it is read as a float.
 """
@@ -13,6 +14,7 @@ YAML 1.1 reads `1e-9` (no dot) as a string; scientists write it, so it is read a
 from __future__ import annotations
 
 import re
+import sys
 from pathlib import Path
 
 import yaml
@@ -39,6 +41,13 @@ class _Loader(yaml.SafeLoader):
         finally:
             self.depth -= 1
 
+    def construct_yaml_int(self, node):
+        try:
+            return super().construct_yaml_int(node)
+        except ValueError:  # Python's limit on the digits of a decimal integer read from text
+            raise yaml.constructor.ConstructorError(
+                None, None, f"an integer of more than {sys.get_int_max_str_digits()} digits", node.start_mark) from None
+
     def construct_mapping(self, node, deep=False):
         seen = set()
         for key_node, _ in node.value:
@@ -56,6 +65,7 @@ class _Loader(yaml.SafeLoader):
 
 
 _Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _Loader.construct_mapping)
+_Loader.add_constructor("tag:yaml.org,2002:int", _Loader.construct_yaml_int)
 _FLOAT = re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
                     |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
                     |\.[0-9_]+(?:[eE][-+][0-9]+)?

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from testbed.cli.commands import command
+from testbed.cli.commands import command, reported
 from testbed.errors import InputError
 from testbed.recording.output_paths import output_path
 from testbed.systems.cmg_rhombus.cluster import ClusterGeometry
@@ -63,9 +63,11 @@ def run(args) -> int:
     write_envelope_rrd(out, math.radians(alpha), cluster.h, args.points, axes=cluster.gimbal_axes)
     ext = axis_extents(cluster.gimbal_axes, cluster.h)
     a = math.radians(alpha)
-    print(f"momentum envelope, alpha = {alpha:g} deg, h = {cluster.h:g} N m s (gimbal axes from the model)")
     expected = 4 * cluster.h * np.array([math.cos(a), math.sin(a), 1.0])
-    for name, label, value, exact in zip("xyz", ("4h cos a", "4h sin a", "4h"), ext, expected):
-        print(f"  extent along {name}: {value:.6g} N m s ({label} = {exact:.6g})")
-    print(f"trace: {out}")
-    return EXIT_OK
+
+    def report():
+        print(f"momentum envelope, alpha = {alpha:g} deg, h = {cluster.h:g} N m s (gimbal axes from the model)")
+        for name, label, value, exact in zip("xyz", ("4h cos a", "4h sin a", "4h"), ext, expected):
+            print(f"  extent along {name}: {value:.6g} N m s ({label} = {exact:.6g})")
+        print(f"trace: {out}")
+    return reported(EXIT_OK, report)
