@@ -3,8 +3,16 @@ plug-in law that logs the runs of each case (and can kill its process) so a test
 
 from __future__ import annotations
 
+import contextlib
 import copy
+import json
 import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 from testbed.scenario.yaml_reading import read_yaml
 from testbed.scenario.shipped_files import SCENARIO_DIR
@@ -62,3 +70,40 @@ class Logged:
                 os.kill(os.getpid(), signal.SIGKILL)
         return {"torque": np.zeros(3)}
 '''
+
+
+@contextlib.contextmanager
+def hand_started_cluster(cwd: Path, worker_names=("w1",), **env):
+    """`dask scheduler` on a free loopback port and one single-threaded `dask worker` process per
+    name, started in `cwd` with this process's import path (and `env` added); yields the
+    scheduler's address once every worker has joined; stopped (SIGTERM, then kill) at the end."""
+    from distributed import Client
+
+    dask = Path(sys.executable).with_name("dask")  # the CLI of the dask package, beside this Python
+    scheduler_file = Path(cwd) / "scheduler.json"
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "cwd": cwd,
+             "env": dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path), **env)}
+    processes = [subprocess.Popen([str(dask), "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                                   "--scheduler-file", str(scheduler_file)], **quiet)]
+    try:
+        deadline = time.monotonic() + 120
+        while not scheduler_file.exists() or not scheduler_file.read_text().strip():
+            assert time.monotonic() < deadline and processes[0].poll() is None, "the scheduler did not start"
+            time.sleep(0.1)
+        for name in worker_names:
+            processes.append(subprocess.Popen([str(dask), "worker", "--scheduler-file", str(scheduler_file),
+                                               "--nthreads", "1", "--nworkers", "1", "--no-dashboard",
+                                               "--name", name], **quiet))
+        address = json.loads(scheduler_file.read_text())["address"]
+        with Client(address, timeout=60) as client:  # every worker is there before the first case
+            client.wait_for_workers(len(worker_names), timeout=120)
+        yield address
+    finally:
+        for process in reversed(processes):
+            process.send_signal(signal.SIGTERM)
+        for process in processes:
+            try:
+                process.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()

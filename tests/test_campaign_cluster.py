@@ -9,8 +9,6 @@ import csv
 import json
 import math
 import os
-import signal
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -18,7 +16,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from campaign_cases import spinup
+from campaign_cases import hand_started_cluster, spinup
 from testbed.campaign.table import read_parquet
 from testbed.cli import main
 
@@ -58,31 +56,8 @@ def without_wall_time(rows: list[dict]) -> list[dict]:
 def dask_cluster(tmp_path):
     """`dask scheduler` on a random localhost port and two single-threaded `dask worker`
     processes (each importing the testbed from this checkout), stopped after the test."""
-    scheduler_file = tmp_path / "scheduler.json"
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
-    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "env": env, "cwd": tmp_path}
-    processes = [subprocess.Popen([str(DASK), "scheduler", "--host", "127.0.0.1", "--port", "0",
-                                   "--no-dashboard", "--scheduler-file", str(scheduler_file)], **quiet)]
-    try:
-        deadline = time.monotonic() + 60
-        while not scheduler_file.exists() or not scheduler_file.read_text().strip():
-            assert time.monotonic() < deadline and processes[0].poll() is None, "the scheduler did not start"
-            time.sleep(0.1)
-        address = json.loads(scheduler_file.read_text())["address"]
-        for name in ("w1", "w2"):
-            processes.append(subprocess.Popen([str(DASK), "worker", "--scheduler-file", str(scheduler_file),
-                                               "--nthreads", "1", "--nworkers", "1", "--no-dashboard",
-                                               "--name", name], **quiet))
+    with hand_started_cluster(tmp_path, ("w1", "w2")) as address:
         yield address
-    finally:
-        for process in reversed(processes):
-            process.send_signal(signal.SIGTERM)
-        for process in processes:
-            try:
-                process.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                process.kill()
-                process.wait()
 
 
 @pytest.mark.slow

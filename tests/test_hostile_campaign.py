@@ -21,6 +21,7 @@ import psutil
 import pytest
 import yaml
 
+from campaign_cases import hand_started_cluster
 from testbed.campaign.cluster import SCHEDULER_TIMEOUT_S, max_workers
 from testbed.cli import main
 
@@ -290,39 +291,10 @@ def test_cases_that_end_their_worker_are_the_only_error_rows(folder, capfd, work
 
 @pytest.fixture(scope="module")
 def external_cluster(tmp_path_factory):
-    """`dask scheduler` on a free loopback port and one single-threaded `dask worker`, both
-    started in a folder of their own (not the campaign's) with REFUSING_WORKER set; stopped after."""
-    cwd = tmp_path_factory.mktemp("elsewhere")
-    scheduler_file = cwd / "scheduler.json"
-    dask = Path(sys.executable).with_name("dask")
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path), REFUSING_WORKER="1")
-    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "env": env, "cwd": cwd}
-    processes = [subprocess.Popen([str(dask), "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                                   "--scheduler-file", str(scheduler_file)], **quiet)]
-    try:
-        deadline = time.monotonic() + 120
-        while not scheduler_file.exists() or not scheduler_file.read_text().strip():
-            assert time.monotonic() < deadline and processes[0].poll() is None, "the scheduler did not start"
-            time.sleep(0.1)
-        processes.append(subprocess.Popen([str(dask), "worker", "--scheduler-file", str(scheduler_file), "--nthreads", "1",
-                                           "--nworkers", "1", "--no-dashboard"], **quiet))
-        import json
-
-        from distributed import Client
-
-        address = json.loads(scheduler_file.read_text())["address"]
-        with Client(address, timeout=60) as client:  # the worker is there before the first test
-            client.wait_for_workers(1, timeout=120)
+    """`dask scheduler` and one single-threaded `dask worker`, both started in a folder of their
+    own (not the campaign's) with REFUSING_WORKER set; stopped after."""
+    with hand_started_cluster(tmp_path_factory.mktemp("elsewhere"), REFUSING_WORKER="1") as address:
         yield address
-    finally:
-        for process in reversed(processes):
-            process.send_signal(signal.SIGTERM)
-        for process in processes:
-            try:
-                process.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                process.kill()
-                process.wait()
 
 
 def test_a_plugin_named_relative_to_the_scenario_loads_in_a_worker_elsewhere(external_cluster, folder, capfd, monkeypatch):

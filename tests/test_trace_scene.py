@@ -162,3 +162,12 @@ def test_cmg_picture_read_back_from_the_trace(traces, name):
     assert now.shape == (n, 3)
     np.testing.assert_allclose(now, momentum, atol=1e-5 * geometry.h)
     np.testing.assert_allclose(measure[:, 0], geometry.singularity_measure(beta), rtol=1e-9)
+
+
+def test_a_trace_with_no_signal_opens_on_its_stored_result():
+    """No plot to show (a run stopped before its first sample): the blueprint's right side is the
+    result document, at the entity the writer stores it under."""
+    from testbed.recording.blueprint import RESULT_ENTITY, blueprint
+
+    right = blueprint([], 1.0, None).root_container.contents[-1]
+    assert type(right).__name__ == "TextDocumentView" and str(right.origin) == f"/{RESULT_ENTITY}"

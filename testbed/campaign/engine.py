@@ -11,7 +11,7 @@ it ran past its timeout twice.
 The command places the tasks itself, DEPTH per worker thread, and the next as one finishes.
 DEPTH is 1: when a worker dies, the task out on it is the one it was running. (With a second
 task waiting on the worker, one that had finished but whose result died with the worker was
-the oldest out and was blamed: 1 run in 3 of tests/test_campaign_cluster.py's worker death.)
+the oldest out and was blamed: 1 run in 3 of tests/test_dask_cluster.py's worker death.)
 With more threads a worker runs its tasks oldest first, so the oldest task out on it when the
 first of its tasks is reported dead is the one that killed it (the others may be reported in
 any order): that case is handed out once more (the
@@ -46,7 +46,7 @@ from typing import Any, Callable, Iterable, Iterator
 
 from distributed.diagnostics.plugin import WorkerPlugin
 
-from testbed import campaign_cluster
+from testbed.campaign import cluster as dask_cluster
 from testbed.errors import InputError
 
 RETRIES = 1  # a case whose worker died runs once more
@@ -55,7 +55,7 @@ RETRIES = 1  # a case whose worker died runs once more
 STALL_S = 2.0
 POLL_S = 0.05
 DEPTH = 1    # tasks out per worker thread: the one running (module doc)
-NO_WORKER_S = 2 * campaign_cluster.START_TIMEOUT_S  # no worker at all this long: the cases left cannot run
+NO_WORKER_S = 2 * dask_cluster.START_TIMEOUT_S  # no worker at all this long: the cases left cannot run
 # The local scheduler reports a dead worker's task at once (it would otherwise run it again
 # itself, possibly on a worker that is busy): the command retries it, one task per worker.
 # Its workers are forked from a fork server that ignores SIGINT (testbed.campaign.cluster).
@@ -123,12 +123,12 @@ class Engine:
         if self.scheduler is None:
             self.config = dask.config.set(LOCAL_CONFIG)  # for the cluster's life: a restarted worker reads it too
             try:
-                self.cluster, self.client = campaign_cluster.start_local(self.workers)
+                self.cluster, self.client = dask_cluster.start_local(self.workers)
             except BaseException:
                 self.__exit__(None, None, None)
                 raise
         else:
-            self.client = campaign_cluster.connect(self.scheduler)
+            self.client = dask_cluster.connect(self.scheduler)
         try:
             if self.cluster is not None:
                 self.client.register_plugin(LocalWorker())
@@ -145,7 +145,7 @@ class Engine:
 
     def __exit__(self, *exc_info) -> None:
         client, cluster, self.client, self.cluster = self.client, self.cluster, None, None
-        campaign_cluster.close(client, cluster)
+        dask_cluster.close(client, cluster)
         if self.config is not None:
             self.config.__exit__(None, None, None)
             self.config = None

@@ -10,7 +10,6 @@ sampled loop converges to as its periods shrink, and the metric
 
 from __future__ import annotations
 
-import numpy as np
 
 from testbed.errors import InputError
 from testbed.lebedev.continuous import closed_loop_states

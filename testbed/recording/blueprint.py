@@ -8,6 +8,8 @@ import rerun.blueprint as rrb
 
 from testbed.recording.scene_drawing import MOMENTUM_SPACE, extent
 
+RESULT_ENTITY = "run/result"  # where the writer stores the run's result; the layout shows it
+
 # Unit and component labels by signal name; a signal not listed is plotted unlabelled.
 UNITS = {
     "omega": "rad/s", "omega_error": "rad/s", "y": "rad/s", "bias": "rad/s",

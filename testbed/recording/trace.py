@@ -29,13 +29,12 @@ import numpy as np
 import rerun as rr
 
 from testbed.recording.atomic_file import partial_beside, publish
-from testbed.recording.blueprint import UNITS, blueprint, series_names
+from testbed.recording.blueprint import RESULT_ENTITY, UNITS, blueprint, series_names
 from testbed.recording.decimation import block_starts, minmax_decimate
 from testbed.recording.rrd_file import FileStream
 from testbed.recording.scene_drawing import MOMENTUM_SPACE, extent, measure_colors, write_scene, write_scene_static
 
 APP_ID = "gyrodyne-testbed"
-RESULT_ENTITY = "run/result"
 TIMELINE = "sim_time"
 # A run of more trace samples than this is written without Rerun's footer (recording_to):
 # 10 000 s of cmg_open_loop at its 0.1 s trace period
