@@ -287,3 +287,26 @@ def test_a_campaign_turns_every_hostile_stage_into_its_error_row(hostile, capfd,
         assert {r["pipeline.law.mode"]: r["error"] for r in csv.DictReader(handle)} == expected
     assert "printed by the stage" in err.splitlines()  # from the worker process
     assert "Warning" not in err and "warned by the stage" not in err, err[-1000:]
+
+
+def test_plugin_code_outside_a_stage_that_exits_is_a_failed_command(capfd):
+    """A registered subcommand (as a system package adds one) that calls sys.exit(0): exit 1 and
+    one line, not the plug-in's own status 0 as if the command had passed."""
+    import sys as _sys
+
+    from testbed import registry
+    from testbed.cli.commands import command
+    from testbed.plugins import discover
+
+    discover()  # the built-ins are in the snapshot restored after
+    saved = registry.snapshot()
+    try:
+        @command("test-exits")
+        def add_parser(sub):
+            sub.add_parser("test-exits").set_defaults(func=lambda args: _sys.exit(0))
+
+        assert main(["test-exits"]) == 1
+    finally:
+        registry.restore(saved)
+    out, err = capfd.readouterr()
+    assert out == "" and err.splitlines() == ["error: plug-in code exited the process (sys.exit(0))"]

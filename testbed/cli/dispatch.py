@@ -14,7 +14,7 @@ import warnings
 from testbed.cli import campaign, describe, init, inspect_trace, list_scenarios, run
 from testbed.cli.commands import COMMANDS, stdout_lost
 from testbed.interrupts import Terminated, signals_as_exceptions
-from testbed.errors import InputError, WriteFailed
+from testbed.errors import InputError, WriteFailed, quoted
 from testbed.plugins import discover
 
 # The built-in subcommands, in the order `testbed --help` lists them: each module registers its
@@ -46,8 +46,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with signals_as_exceptions(), warnings.catch_warnings():
             warnings.simplefilter("ignore")  # numerical warnings never reach the terminal raw
-            args = _parser().parse_args(argv)
-            return args.func(args)
+            args = _parser().parse_args(argv)  # --help ends here, with its own SystemExit(0)
+            try:
+                return args.func(args)
+            except SystemExit as exc:  # plug-in code outside a stage (a system, a reference) exiting
+                print(f"error: plug-in code exited the process (sys.exit({quoted(exc.code)}))", file=sys.stderr)
+                return EXIT_FAILED
     except InputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
