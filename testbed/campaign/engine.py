@@ -1,36 +1,22 @@
 """The one engine that runs the cases of a sweep or campaign: Dask distributed.
 
 `Engine()` starts a local cluster inside the command, one single-threaded worker process per
-core (or `workers`); `Engine(scheduler="tcp://HOST:PORT")` submits to a cluster started with
-`dask scheduler` and `dask worker` (docs/campaigns.md, "Several machines"). Starting, reaching and
-closing a cluster, within bounds and whatever signal comes: testbed.campaign.cluster.
+core (or `workers`); `Engine(scheduler="tcp://HOST:PORT")` submits to a hand-started cluster
+(docs/campaigns.md, "Several machines"). Starting, reaching and closing a cluster within bounds,
+whatever signal comes: testbed.campaign.cluster.
 
-`results(fn, tasks)` runs fn(*args) for every argument tuple and yields (args, outcome) as each
-finishes: fn's return value, or `CaseLost` when the worker process running it died twice, or
-it ran past its timeout twice.
-The command places the tasks itself, DEPTH per worker thread, and the next as one finishes.
-DEPTH is 1: when a worker dies, the task out on it is the one it was running. (With a second
-task waiting on the worker, one that had finished but whose result died with the worker was
-the oldest out and was blamed: 1 run in 3 of tests/test_dask_cluster.py's worker death.)
-With more threads a worker runs its tasks oldest first, so the oldest task out on it when the
-first of its tasks is reported dead is the one that killed it (the others may be reported in
-any order): that case is handed out once more (the
-local scheduler reports every task of a dead worker at once, allowed-failures 0; another
-scheduler first retries them by its own setting, Dask's default 3 times), then reported as
-an error row; the one that waited behind it goes back in the queue, not counted. Results are
-fetched in the background as tasks finish and released once taken. A task placed on a worker
-that died meanwhile can wait on the scheduler for that worker forever ('no-worker'); when no
-task has finished for STALL_S the command asks the scheduler, and hands such tasks out again.
-A task out for longer than timeout_s(args) (testbed.campaign.case_timeout), counted from when its try
-was first handed out, is given up: on the local cluster its worker process is ended from its
-event loop (a thread running a task cannot be stopped; the nanny starts another), and a task
-out on a worker so ended is not blamed for its death; on an external cluster that thread
-runs on and this command gives it nothing more. It is handed out RETRIES times more, then a
-CaseLost. Cases that no worker can take (every thread so held, or no worker for NO_WORKER_S)
-become CaseLost rather than wait forever.
-Ctrl-C (or any exception in the caller's loop) cancels the cases out; leaving the `with`
-block closes the local cluster, stopping them. On an external cluster the ones running go on
-to their end (a worker thread cannot be stopped), their results unused.
+`results(fn, tasks)` yields (args, fn(*args)) as each case finishes, or (args, CaseLost) for a
+case whose worker died running it twice or that ran past its timeout twice. The command places
+each task itself, bound to one worker, DEPTH per worker thread. Blame for a worker's death goes
+only to the oldest task the scheduler's record says was processing on that worker: the others
+go back in the queue uncounted. (When tasks could move to another worker, one out on a worker
+that had just died could die with a second worker and be blamed: 1 suite run in 3.) A task
+stranded on a worker that is gone ('no-worker') is handed out again after STALL_S; one the
+scheduler saw die (an external scheduler's own retries) counts as a death. A task out past
+timeout_s(args) is given up: on the local cluster its worker process is ended (its nanny starts
+another), on an external one that thread is given nothing more. Cases no worker can take become
+CaseLost rather than wait forever. Ctrl-C cancels the cases out; leaving the `with` block closes
+the local cluster.
 """
 
 from __future__ import annotations
@@ -112,10 +98,22 @@ class LocalWorker(WorkerPlugin):
 
 
 class Engine:
+    """A cluster to run cases on: `workers` local processes (checked here: 1 ... max_workers(),
+    default one per core), or the cluster of the scheduler at `scheduler`; started by `with`."""
+
     def __init__(self, workers: int | None = None, scheduler: str | None = None):
-        self.workers = workers or os.cpu_count() or 1
+        if scheduler is not None and workers is not None:
+            raise InputError("--workers", "sizes the local cluster; with --scheduler the cluster's own workers run the cases")
+        self.workers = dask_cluster.checked_workers(workers) if workers is not None else os.cpu_count() or 1
         self.scheduler = scheduler
         self.client = self.cluster = self.config = None
+
+    def at_most(self, cases: int) -> bool:
+        """No more local workers than `cases` (an idle worker only costs its start); whether
+        that started fewer than asked for."""
+        clamped = self.scheduler is None and self.workers > cases
+        self.workers = min(self.workers, cases)
+        return clamped
 
     def __enter__(self) -> "Engine":
         import dask
@@ -198,21 +196,26 @@ class Engine:
                 while pending and len(queue) + stuck[address] < DEPTH * worker["nthreads"]:
                     args = pending.popleft()
                     key = f"{name(args)}-{batch}-{uuid.uuid4().hex[:8]}"  # a case handed out again gets a new key
+                    # strictly on that worker: a task the scheduler moved elsewhere (its worker
+                    # died before it started) could die with a worker it was not placed on and be
+                    # blamed there; stranded instead, it is handed out again (hand_back_stranded)
                     future = self.client.submit(fn, *args, key=key, pure=False, workers=[address],
-                                                allow_other_workers=True)
+                                                allow_other_workers=False)
                     out[future] = (args, address, time.monotonic())
                     attempt.setdefault(name(args), time.monotonic())
                     queue.append(future)
                     finished.add(future)
 
-        def hand_back_stranded() -> None:
+        def hand_back_stranded() -> Iterator[tuple[tuple, CaseLost]]:
             """Tasks out for longer than STALL_S that the scheduler cannot run go back in the
-            queue (not counted as a death): a new key, placed on a worker that is there."""
+            queue: a new key, placed on a worker that is there. One that was running when its
+            worker died (an external scheduler retries such a task itself, on the worker it is
+            bound to, which is gone) counts as a death: handed out RETRIES times, then a CaseLost."""
             old = [f for f, (_, _, handed) in out.items() if time.monotonic() - handed > STALL_S]
             if not old:
                 return
             try:
-                stranded = set(self.client.run_on_scheduler(_stranded, [f.key for f in old]))
+                stranded = dict(self.client.run_on_scheduler(_stranded, [f.key for f in old]))
             except Exception:  # noqa: BLE001  (a scheduler that runs no code of ours: wait on)
                 return
             for future in [f for f in old if f.key in stranded]:
@@ -221,6 +224,11 @@ class Engine:
                 if future in queues.get(address, ()):
                     queues[address].remove(future)
                 self.client.cancel([future])
+                if stranded[future.key]:
+                    deaths[name(args)] = deaths.get(name(args), 0) + 1
+                    if deaths[name(args)] > RETRIES:
+                        yield args, CaseLost(f"the worker process died running it, {deaths[name(args)]} times")
+                        continue
                 pending.appendleft(args)
 
         def give_up_overdue() -> Iterator[tuple[tuple, CaseLost]]:
@@ -278,7 +286,7 @@ class Engine:
                     _wait_a_little(finished)
                     yield from give_up_overdue()
                     if time.monotonic() - last_finish > STALL_S:
-                        hand_back_stranded()
+                        yield from hand_back_stranded()
                         last_finish = time.monotonic()
                     continue
                 future, outcome = next(finished)
@@ -291,12 +299,15 @@ class Engine:
                 future.release()
                 if isinstance(outcome, BaseException):  # cancelled: the cluster went away
                     raise outcome
-                if failed and isinstance(outcome[1], KilledWorker) and future not in blame:
+                died_on = _died_on(outcome[1]) if failed and isinstance(outcome[1], KilledWorker) else None
+                if died_on == address and future not in blame:
                     # the first of a dead worker's tasks to be reported: the oldest out on it then
                     # is the one that killed it, whatever order the others are reported in
                     dead = queues.pop(address, [])
                     blame.update({f: i == 0 for i, f in enumerate(dead)})
-                culprit = blame.pop(future, False) and address not in ended  # not one this command killed
+                # only on the worker it was placed on and processing on (the scheduler's record),
+                # and not one this command killed
+                culprit = blame.pop(future, False) and died_on == address and address not in ended
                 if future in queues.get(address, ()):
                     queues[address].remove(future)
                 if failed:  # outcome is (type, exception, traceback)
@@ -312,6 +323,12 @@ class Engine:
         finally:
             if out:
                 self.client.cancel(list(out))
+
+
+def _died_on(error) -> str | None:
+    """The address of the worker a KilledWorker's task was processing on when that worker died
+    (the scheduler's own record), or None if the error does not say."""
+    return getattr(getattr(error, "last_worker", None), "address", None)
 
 
 async def _end_worker_process() -> None:
@@ -332,10 +349,12 @@ def _wait_a_little(finished) -> None:
             condition.wait(timeout=POLL_S)
 
 
-def _stranded(keys: list, dask_scheduler=None) -> list:
-    """Of `keys`, those the scheduler cannot run (run on the scheduler): unknown to it, or in
-    'no-worker', waiting for a worker that is no longer there, while another one runs. (With no
-    worker running, as while restarted ones start, a task handed out again would wait the same.)"""
+def _stranded(keys: list, dask_scheduler=None) -> list[tuple[str, bool]]:
+    """Of `keys`, those the scheduler cannot run (run on the scheduler), each with whether a worker
+    died while running it: unknown to it, or in 'no-worker', waiting for a worker that is no longer
+    there, while another one runs. (With no worker running, as while restarted ones start, a task
+    handed out again would wait the same.)"""
     tasks = dask_scheduler.tasks
     waiting = ("no-worker", "released", "forgotten") if dask_scheduler.running else ("released", "forgotten")
-    return [key for key in keys if key not in tasks or tasks[key].state in waiting]
+    return [(key, key in tasks and tasks[key].suspicious > 0) for key in keys
+            if key not in tasks or tasks[key].state in waiting]
