@@ -17,7 +17,6 @@ from threadpoolctl import ThreadpoolController
 
 from testbed import metrics
 from testbed.recording import trace
-from testbed.recording.output_paths import output_path
 from testbed.references import registry as references_registry
 from testbed.systems import registry as systems_registry
 from testbed.errors import InputError, error_line, refused_as
@@ -140,8 +139,10 @@ def stage_context(scenario, inertia, description=None, actuators=None, internal_
 
 
 def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = False,
-                 live=None, on_prepared=None) -> RunResult:
-    """Run `scenario`, stream the trace to `out` (None: no file) and evaluate its checks;
+                 live=None, on_prepared=None, prepared=None) -> RunResult:
+    """Run `scenario`, stream the trace to `out` (None: no file; a path `output_path` checked,
+    as `testbed.run` does) and evaluate its checks; `prepared`: `prepare(scenario)`'s plant,
+    pipeline and reference, if the caller built them to check the scenario first;
     `keep_data` keeps the whole trace and what the metrics saw in the result (otherwise only the
     signals the metrics need are kept: memory does not grow with the run for metrics that are
     running reductions); `live`: a viewer (testbed.recording.live_view.ViewerStream) the trace is also
@@ -151,14 +152,13 @@ def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = Fa
     campaign reads back what the case runs with). os._exit called by a plug-in's code raises
     (testbed.exit_guard), so that a stage that calls it fails the run."""
     with one_blas_thread(), os_exit_raises():
-        return _run(scenario, out, progress, keep_data, live, on_prepared)
+        return _run(scenario, out, progress, keep_data, live, on_prepared, prepared)
 
 
-def _run(scenario, out, progress, keep_data, live, on_prepared) -> RunResult:
+def _run(scenario, out, progress, keep_data, live, on_prepared, prepared) -> RunResult:
     """`run_scenario`'s body, with one BLAS thread (`one_blas_thread`)."""
     wall0 = time.perf_counter()
-    out = output_path(out) if out is not None else None  # refused before the run, not after
-    plant, pipeline, reference = prepare(scenario)
+    plant, pipeline, reference = prepared if prepared is not None else prepare(scenario)
     if on_prepared is not None:
         on_prepared(plant, pipeline)
     sim = scenario.sim
@@ -186,7 +186,6 @@ def _run(scenario, out, progress, keep_data, live, on_prepared) -> RunResult:
         # a chunk at least every FLUSH_AFTER_S of wall time: a viewer sees the run move, and a killed
         # slow run loses at most that much of its trace
         recorder = Recorder(keep=keep, on_chunk=stream, flush_after_s=FLUSH_AFTER_S if rec else None)
-        stream.recorder = recorder
         try:
             # a stage whose numbers overflow or turn invalid fails at that tick, named (StageFailed),
             # instead of printing numpy warnings and handing NaN on
@@ -199,7 +198,7 @@ def _run(scenario, out, progress, keep_data, live, on_prepared) -> RunResult:
         except FloatingPointError as exc:  # the plant's own read-outs overflowed: the state blew up
             status, error = "diverged", str(SimulationDiverged(plant.time, f"{exc} in the plant's read-outs"))
         recorder.flush()
-        stream.finish()
+        stream.finish(recorder)
         data = RunData(scenario, recorder, {slot: stage.statistics for slot, stage in pipeline.stages().items()
                                             if hasattr(stage, "statistics")},
                        plant.description(), momentum_scale, stream.reference_error, reductions=reductions)
@@ -219,42 +218,50 @@ def _run(scenario, out, progress, keep_data, live, on_prepared) -> RunResult:
 class _ChunkStream:
     """What happens to each chunk of trace samples as the run goes: the plant's derived signals
     are added, the reference advances (`update` of a streaming reference), the metrics'
-    reductions are updated and the chunk is written. A reference that needs the whole run is
-    evaluated by `finish` on the kept history; a reference that fails is left out, its reason
-    kept (`reference_error`) for the metrics that need it."""
+    reductions are updated and the chunk is written; the reference's rows go back to the
+    recorder to keep. A reference that needs the whole run is evaluated by `finish` on the kept
+    history; a reference that fails is left out, its reason kept (`reference_error`) for the
+    metrics that need it."""
 
     def __init__(self, plant, reference, reductions, writer):
         self.plant, self.reference, self.reductions, self.writer = plant, reference, reductions, writer
-        self.recorder = None
         self.reference_error = None
 
-    def __call__(self, chunk) -> None:
+    def __call__(self, chunk) -> list[Chunk]:
         with np.errstate(all="ignore"):  # NaN rows of a run cut short are recorded as they are
             chunk.signals.update(self.plant.derived_signals(chunk))
         self._emit(chunk)
         if self.reference is not None and hasattr(self.reference, "update") and self.reference_error is None:
-            self._reference(lambda: self.reference.update(chunk))
+            return self._reference(lambda: self.reference.update(chunk))
+        return []
 
-    def finish(self) -> None:
+    def finish(self, recorder) -> None:
+        """The reference's last rows (a streaming one's), or all of them (one that needs the whole
+        run, from the recorder's kept history), into `recorder`."""
         if self.reference is None or self.reference_error is not None:
             return
         if hasattr(self.reference, "update"):
-            self._reference(self.reference.finish)
-        elif self.recorder.count > 1:
-            recorder = self.recorder
-            self._reference(lambda: _reference_chunk(recorder.time, self.reference(recorder.time, recorder),
-                                                     recorder["truth/omega"]))
+            rows = self._reference(self.reference.finish)
+        elif recorder.count > 1:
+            rows = self._reference(lambda: _reference_chunk(recorder.time, self.reference(recorder.time, recorder),
+                                                            recorder["truth/omega"]))
+        else:
+            rows = []
+        for chunk in rows:
+            recorder.keep_chunk(chunk)
 
-    def _reference(self, evaluate) -> None:
+    def _reference(self, evaluate) -> list[Chunk]:
+        """The chunk `evaluate()` gives, written ([] if none, or if the reference failed)."""
         try:
             with np.errstate(all="ignore"):
                 chunk = evaluate()
         except (ValueError, ArithmeticError) as exc:  # e.g. too short a trace to interpolate
             self.reference_error = f"the reference could not be evaluated: {exc}"
-            return
-        if chunk is not None:
-            self._emit(chunk)
-            self.recorder.keep_chunk(chunk)
+            return []
+        if chunk is None:
+            return []
+        self._emit(chunk)
+        return [chunk]
 
     def _emit(self, chunk) -> None:
         self.reductions.update(chunk)
