@@ -36,5 +36,6 @@ class MrpFeedback(Regulator):
         omega = np.asarray(inputs["omega"], float)
         error = self.error(t, inputs["quat"])
         sigma = error[1:] / (1.0 + error[0])
-        torque = -self.k * sigma - self.p * omega + self.gyroscopic(omega, inputs["internal_momentum"])
-        return self.signals(torque, error) | {"mrp_error": sigma}
+        momentum = inputs["internal_momentum"]
+        torque = -self.k * sigma - self.p * omega + self.gyroscopic(omega, momentum)
+        return self.signals(torque, error, momentum) | {"mrp_error": sigma}

@@ -44,5 +44,6 @@ class QuaternionFeedback(Regulator):
         limited = size > self.limit
         if limited:
             wanted = wanted * (self.limit / size)
-        torque = -self.inertia @ (self.c * (wanted + omega)) + self.gyroscopic(omega, inputs["internal_momentum"])
-        return self.signals(torque, error) | {"rate_limited": np.array([1.0 if limited else 0.0])}
+        momentum = inputs["internal_momentum"]
+        torque = -self.inertia @ (self.c * (wanted + omega)) + self.gyroscopic(omega, momentum)
+        return self.signals(torque, error, momentum) | {"rate_limited": np.array([1.0 if limited else 0.0])}

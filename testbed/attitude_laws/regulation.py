@@ -55,6 +55,9 @@ class Regulator:
         """ω × (I ω + H) [N m]."""
         return np.cross(omega, self.inertia @ omega + momentum)
 
-    def signals(self, torque, error) -> dict:
+    def signals(self, torque, error, momentum) -> dict:
+        """What a regulator records: `torque`, the error as a rotation vector `attitude_error` [rad]
+        and its angle `error_angle`, and the `internal_momentum` H it compensated with [N m s]."""
         angle = rotation_vector(error)
-        return {"torque": torque, "attitude_error": angle, "error_angle": np.array([np.linalg.norm(angle)])}
+        return {"torque": torque, "attitude_error": angle, "error_angle": np.array([np.linalg.norm(angle)]),
+                "internal_momentum": momentum}
