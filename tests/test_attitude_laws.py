@@ -102,3 +102,68 @@ def test_mekf_in_the_loop_points_as_its_rate_noise_predicts(ideal):
     assert mekf.metrics["final_pointing_error_deg"] < np.degrees(3 * predicted)
     # the ideal run of the same slew: at the round-off floor, a million times better
     assert ideal.metrics["pointing_rms_last_20s_arcsec"] < 1e-3
+
+
+PLUGIN = '''
+from dataclasses import dataclass
+import numpy as np
+import testbed
+
+
+@dataclass(kw_only=True)
+class HoldParams:
+    natural_frequency_rad_s: float = testbed.param(0.3, gt=0)
+
+
+@testbed.stage("law", "user.momentum_hold", HoldParams)
+class MomentumHold:
+    """A user's PD hold of the start attitude that cancels w x (I w + H) itself."""
+
+    inputs = ("internal_momentum",)
+
+    @classmethod
+    def design(cls, params):
+        return {"compensates_internal_momentum": True}
+
+    def __init__(self, params, ctx):
+        self.inertia = np.asarray(ctx.inertia, float)
+        self.kp, self.kd = 2 * params.natural_frequency_rad_s**2, 2 * params.natural_frequency_rad_s
+
+    def torque(self, t, inputs):
+        q, w, h = inputs["quat"], inputs["omega"], inputs["internal_momentum"]
+        e = q[1:] if q[0] >= 0 else -q[1:]
+        u = -self.inertia @ (self.kp * e + self.kd * w) + np.cross(w, self.inertia @ w + h)
+        return {"torque": u, "h": h}
+'''
+
+
+@pytest.mark.slow
+def test_a_users_law_reads_the_cluster_momentum_and_decouples_the_axes(tmp_path):
+    (tmp_path / "hold.py").write_text(PLUGIN)
+    wn = 0.3
+    data = {"name": "user_hold", "plugins": [str(tmp_path / "hold.py")],
+            "model": {"system": "cmg_rhombus", "inertia_kg_m2": [800, 1000, 1200], "rotor_momentum_nms": 25,
+                      "gimbal_angles_deg": [45, -45, -45, -45], "servo_model": "feedforward",
+                      "servo_natural_frequency_rad_s": 5},
+            "initial": {"quat": [1, 0, 0, 0], "omega_deg_s": [0.02, 0, 0]},
+            "sim": {"duration_s": 20, "dt_s": 0.01, "control_period_s": 0.05},
+            "pipeline": {"sensor": {"type": "ideal_attitude"}, "estimator": {"type": "attitude"},
+                         "law": {"type": "user.momentum_hold", "natural_frequency_rad_s": wn},
+                         "allocator": {"type": "minimax", "beta_rate_max_deg_s": 10}}}
+    result = testbed.run(data)
+    assert result.status == "ok"
+    _, h = result.trace["law/h"]
+    rows = np.all(np.isfinite(h), axis=1)
+    assert np.linalg.norm(h[rows][0]) > 35.0          # the stored momentum the law must cancel
+    _, held = result.trace["allocator/held_momentum"]
+    assert np.max(np.abs(h[rows] - held[rows])) < 1e-9 * np.max(np.abs(held[rows]))
+    # cancelled: each axis obeys θ'' + 2 ωn θ' + ωn² θ = 0 (θ = 2 e, critical damping) by itself, so
+    # the x rate decays as ω0 (1 - ωn t) e^(-ωn t) and y, z stay at rest; with |H| = 35 N m s
+    # uncompensated the x rate would spill into y and z at |H| ω0 / I ~ 1e-5 rad/s^2
+    t, omega = result.trace["truth/omega"]
+    w0 = np.radians(0.02)
+    closed = w0 * (1 - wn * t) * np.exp(-wn * t)
+    # the held torque over 0.05 s (ωn Tc = 0.015) sets the band: 3 % of ω0 (measured 0.7 %); across,
+    # 0.5 % (measured 0.05 %), where the uncompensated spill would reach 3.5 % of ω0 within a second
+    assert np.max(np.abs(omega[:, 0] - closed)) < 0.03 * w0
+    assert np.max(np.abs(omega[:, 1:])) < 0.005 * w0
