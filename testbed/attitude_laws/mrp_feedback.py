@@ -26,6 +26,8 @@ class MrpFeedbackParams(TargetParams):
 
 @stage("law", "mrp_feedback", MrpFeedbackParams)
 class MrpFeedback(Regulator):
+    """MRP feedback -K sigma - P w (Schaub) with w x (I w + H) compensation."""
+
     name = "mrp_feedback"
 
     def __init__(self, params: MrpFeedbackParams, ctx):

@@ -28,6 +28,8 @@ class QuaternionFeedbackParams(TargetParams):
 
 @stage("law", "quaternion_feedback", QuaternionFeedbackParams)
 class QuaternionFeedback(Regulator):
+    """Rate-limited eigen-axis quaternion feedback (Wie) with w x (I w + H) compensation."""
+
     name = "quaternion_feedback"
 
     def __init__(self, params: QuaternionFeedbackParams, ctx):

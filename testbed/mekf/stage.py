@@ -63,6 +63,8 @@ class MekfParams:
 
 @stage("estimator", "mekf", MekfParams)
 class MekfEstimator:
+    """Multiplicative extended Kalman filter: attitude and gyro biases from star_tracker_gyro."""
+
     outputs = ("quat", "omega", "bias", "attitude_sigma3", "bias_sigma3", "covariance", "innovation", "nis",
                "updated")
 

@@ -52,6 +52,8 @@ def periods(params: StarTrackerGyroParams, ctx) -> dict:
 
 @stage("sensor", "star_tracker_gyro", StarTrackerGyroParams)
 class StarTrackerGyro:
+    """A star tracker and a three-axis gyro package, each at its own rate (testbed.sensors)."""
+
     outputs = ("tracker_quat", "tracker_stamp", "tracker_new", "tracker_available",
                "gyro_rate", "gyro_stamp", "gyro_bias")
 
