@@ -1,7 +1,8 @@
 """CMG steering as an allocator: wanted body torque -> gimbal-rate commands.
 
 The cluster must deliver H' = -(M + w x H) (SEEDS §004 eq. 14, 16, body frame) through
-h J(b) b' = H' (eq. 17); J, h and H are read from the compiled model (ClusterGeometry) at
+h J(b) b' = H' (eq. 17), or H' = -M for a law that compensates w x (I w + H) itself
+(testbed.attitude_laws.momentum_input: then `torque_delivered` is -H' too); J, h and H are read from the compiled model (ClusterGeometry) at
 the measured gimbal angles and rotor speeds. Each law of testbed.steering is a stage type:
 `pinv`, `sr`, `gsr`, `minimax_lp`, `minimax`, `minimax_avoid`. When the best achievable
 max |b'_i| exceeds b'max the demand is scaled down, keeping its direction; `scale` records the
