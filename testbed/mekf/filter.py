@@ -69,10 +69,9 @@ class Mekf:
         phi = transition(omega, dt)
         self.covariance = phi @ self.covariance @ phi.T + process_noise(self.arw, self.rrw, dt)
 
-    def innovation(self, measured, reference=None) -> np.ndarray:
-        """z = rotvec(q̂~ ∘ q̃) [rad, body axes]; `reference`: the estimate q̂ to compare with
-        (default: the current one; the estimate at the sample's time stamp for a late sample)."""
-        return rotation_vector(quat_mul(quat_conj(self.quat if reference is None else reference), measured))
+    def innovation(self, measured) -> np.ndarray:
+        """z = rotvec(q̂~ ∘ q̃) [rad, body axes] of a measured attitude q̃."""
+        return rotation_vector(quat_mul(quat_conj(self.quat), measured))
 
     def update(self, z: np.ndarray, noise: np.ndarray) -> float:
         """The attitude update with innovation z and measurement covariance `noise` (module doc);

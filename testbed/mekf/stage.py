@@ -1,10 +1,11 @@
 """Estimator `mekf`: the MEKF of testbed.mekf.filter on a star tracker and a gyro package.
 
 It propagates at each new gyro sample (over the time since its last state) and updates at each
-new tracker sample, comparing a late sample (latency L) with the estimate it kept for the
-sample's time stamp and correcting the current state with that innovation (the error's turn
-over L is neglected: L |ω| ≪ 1). It is tuned to the sensor's published noise model. The first
-fix: `tracker` starts from the first tracker sample (a coarse fix of covariance
+new tracker sample. With a tracker latency L (published by the sensor) the filter itself runs L
+behind, at the time the tracker's samples show, keeping the gyro samples since; what it reports
+is its state carried forward through them to the latest gyro sample (the exact treatment of a
+known, fixed delay: the report's covariance holds the gyro noise over L). It is tuned to the
+sensor's published noise model. The first fix: `tracker` starts from the first tracker sample (a coarse fix of covariance
 initial_attitude_sigma_deg), `scenario` from the scenario's initial attitude turned by
 initial_attitude_error_deg; before a tracker fix it reports the scenario's initial attitude.
 
@@ -81,33 +82,52 @@ class MekfEstimator:
         self.filter = Mekf(start, params.initial_bias_rad_s, params.covariance(),
                            sensor.design["angle_random_walk"], sensor.design["rate_random_walk"])
         self.fixed = params.first_fix == "scenario"
-        self.time = 0.0  # the time the state is at
-        self.history = deque(maxlen=64)  # (time, q̂) for late tracker samples
+        self.latency = float(sensor.design.get("tracker_latency_s", 0.0))
+        self.time = 0.0  # the time the filter's state is at: the tracker's, now - latency
+        self.pending = deque()  # (stamp, rate) of the gyro samples after self.time
         self.innovation, self.nis = np.zeros(3), np.zeros(1)
         self.statistics = {"settle_s": params.settle_s}
+
+    def _advance(self, until: float) -> None:
+        """Propagate the filter through the pending gyro samples up to time `until`."""
+        f = self.filter
+        while self.pending and self.pending[0][0] <= until + 1e-9:
+            stamp, rate = self.pending.popleft()
+            if stamp > self.time:
+                f.propagate(rate, stamp - self.time)
+                self.time = stamp
+
+    def _predicted(self) -> Mekf:
+        """The filter carried forward through the gyro samples newer than its state (latency)."""
+        if not self.pending:
+            return self.filter
+        f = self.filter
+        ahead, time = Mekf(f.quat, f.bias, f.covariance, f.arw, f.rrw), self.time
+        for stamp, rate in self.pending:
+            ahead.propagate(rate, stamp - time)
+            time = stamp
+        return ahead
 
     def estimate(self, t, measurement, command):
         f = self.filter
         updated = 0.0
-        if not self.fixed:
-            if measurement["tracker_new"][0]:
+        stamp = float(measurement["gyro_stamp"][0])
+        if self.fixed and stamp > self.time and (not self.pending or stamp > self.pending[-1][0]):
+            self.pending.append((stamp, np.array(measurement["gyro_rate"], float)))
+        if measurement["tracker_new"][0]:
+            seen = float(measurement["tracker_stamp"][0])
+            if not self.fixed:
                 f.quat = np.array(measurement["tracker_quat"], float)
-                self.time = float(measurement["tracker_stamp"][0])
-                self.fixed = True
-        else:
-            stamp = float(measurement["gyro_stamp"][0])
-            if stamp > self.time:
-                f.propagate(measurement["gyro_rate"], stamp - self.time)
-                self.time = stamp
-                self.history.append((stamp, f.quat))
-            if measurement["tracker_new"][0]:
-                seen = float(measurement["tracker_stamp"][0])
-                reference = next((q for when, q in reversed(self.history) if when <= seen + 1e-9), None)
-                self.innovation = f.innovation(measurement["tracker_quat"], reference)
+                self.time, self.fixed = seen, True
+            else:
+                self._advance(seen)
+                self.innovation = f.innovation(measurement["tracker_quat"])
                 self.nis = np.array([f.update(self.innovation, self.noise)])
                 updated = 1.0
-        p = f.covariance
-        return {"quat": f.quat, "omega": measurement["gyro_rate"] - f.bias, "bias": f.bias,
+        self._advance(t - self.latency)  # no sample (an outage): the filter keeps up all the same
+        now = self._predicted()
+        p = now.covariance
+        return {"quat": now.quat, "omega": measurement["gyro_rate"] - now.bias, "bias": now.bias,
                 "attitude_sigma3": 3.0 * np.sqrt(np.diag(p)[:3]), "bias_sigma3": 3.0 * np.sqrt(np.diag(p)[3:]),
                 "covariance": p.ravel(), "innovation": self.innovation, "nis": self.nis,
                 "updated": np.array([updated])}

@@ -63,7 +63,8 @@ class StarTrackerGyro:
         gyro = params.gyro
         return {"tracker_covariance": measurement_covariance(params.star_tracker).tolist(),
                 "angle_random_walk": gyro.angle_random_walk_rad_sqrt_s,
-                "rate_random_walk": gyro.rate_random_walk_rad_s_sqrt_s}
+                "rate_random_walk": gyro.rate_random_walk_rad_s_sqrt_s,
+                "tracker_latency_s": params.star_tracker.latency_s}
 
     def __init__(self, params: StarTrackerGyroParams, ctx):
         require_free_body(ctx, "sensor", "star_tracker_gyro")
