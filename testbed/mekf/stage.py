@@ -3,11 +3,12 @@
 It propagates at each new gyro sample (over the time since its last state) and updates at each
 new tracker sample. With a tracker latency L (published by the sensor) the filter itself runs L
 behind, at the time the tracker's samples show, keeping the gyro samples since; what it reports
-is its state carried forward through them to the latest gyro sample (the exact treatment of a
+is its state carried forward through them to the latest gyro sample (the usual treatment of a
 known, fixed delay: the report's covariance holds the gyro noise over L). It is tuned to the
-sensor's published noise model. The first fix: `tracker` starts from the first tracker sample (a coarse fix of covariance
-initial_attitude_sigma_deg), `scenario` from the scenario's initial attitude turned by
-initial_attitude_error_deg; before a tracker fix it reports the scenario's initial attitude.
+sensor's published noise model. The first fix: `tracker` starts from the first tracker sample
+(a coarse fix of covariance initial_attitude_sigma_deg), `scenario` from the scenario's initial
+attitude turned by initial_attitude_error_deg; before a tracker fix it reports the scenario's
+initial attitude.
 
 Keys: `quat`, `omega` (gyro rate less the bias estimate), `bias` [rad/s], `attitude_sigma3`
 and `bias_sigma3` (3 √diag P), `covariance` (P row by row, 36), `innovation` [rad] and `nis`
