@@ -5,7 +5,9 @@ what their slot is given, so nothing downstream of the sensor can read the true 
 
 - sensor     `measure(t, plant) -> dict`                 (the only stage that sees truth)
 - estimator  `estimate(t, measurement, command) -> dict`  (`command`: last allocator output)
-- law        `torque(t, estimate) -> dict`                (key `torque`: wanted body torque)
+- law        `torque(t, estimate) -> dict`                (key `torque`: wanted body torque; a law
+             whose class attribute `inputs` lists "internal_momentum" also gets that key:
+             testbed.attitude_laws.momentum_input)
 - allocator  `allocate(t, demand, estimate, actuators) -> dict`
              (key `gimbal_rates` or `body_torque`: what the plant's actuators receive)
 
@@ -271,6 +273,8 @@ class Pipeline:
         self.command: dict[str, np.ndarray] = {}
         # open-loop allocators ignore the actuator read-outs: skip reading them
         self._needs_actuators = getattr(allocator, "needs_actuators", True)
+        # a law that compensates w x H itself reads the internal momentum (testbed.attitude_laws.momentum_input)
+        self._law_reads_momentum = "internal_momentum" in getattr(law, "inputs", ())
         self.checks = checks or {}
         self._sensing, self._estimating, self._controlling, self._allocating = (
             not _returns_nothing(stage_object) for stage_object in (sensor, estimator, law, allocator))
@@ -311,7 +315,10 @@ class Pipeline:
         slot = "law"
         try:
             if self._controlling:
-                self.demand = self.law.torque(t, self.estimate)
+                given = self.estimate
+                if self._law_reads_momentum:
+                    given = given | {"internal_momentum": plant.internal_momentum_body()}
+                self.demand = self.law.torque(t, given)
                 if self._law_check is not None:
                     self._law_check(t, self.demand)
             slot = "allocator"

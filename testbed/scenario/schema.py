@@ -171,6 +171,8 @@ UNIT_SUFFIXES = {
     "_rad_s": "rad/s", "_rad": "rad", "_nms_rad": "N m s/rad", "_nm_rad": "N m/rad", "_nms": "N m s",
     "_nm": "N m", "_kg_m2": "kg m^2", "_kg": "kg", "_per_s": "1/s", "_1_s": "1/s", "_hz": "Hz",
     "_rpm": "rpm", "_m": "m", "_s": "s",
+    "_rad_sqrt_s": "rad/s^(1/2)", "_rad_s_sqrt_s": "rad/s^(3/2)", "_arcsec": "arcsec", "_ppm": "ppm",
+    "_deg_h": "deg/h",
 }
 
 

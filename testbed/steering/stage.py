@@ -1,7 +1,8 @@
 """CMG steering as an allocator: wanted body torque -> gimbal-rate commands.
 
 The cluster must deliver H' = -(M + w x H) (SEEDS §004 eq. 14, 16, body frame) through
-h J(b) b' = H' (eq. 17); J, h and H are read from the compiled model (ClusterGeometry) at
+h J(b) b' = H' (eq. 17), or H' = -M for a law that compensates w x (I w + H) itself
+(testbed.attitude_laws.momentum_input: then `torque_delivered` is -H' too); J, h and H are read from the compiled model (ClusterGeometry) at
 the measured gimbal angles and rotor speeds. Each law of testbed.steering is a stage type:
 `pinv`, `sr`, `gsr`, `minimax_lp`, `minimax`, `minimax_avoid`. When the best achievable
 max |b'_i| exceeds b'max the demand is scaled down, keeping its direction; `scale` records the
@@ -104,7 +105,7 @@ class SteeringAllocator:
         # and of the momentum the cluster holds in full (see the module doc), and the gimbal-rate
         # limit [rad/s] the law keeps (what torque the cluster can give: momentum_gauge)
         return {"delivered_torque": "torque_delivered", "internal_momentum": "momentum",
-                "held_momentum": "held_momentum",
+                "held_momentum": "held_momentum", "law_compensation": True,
                 "gimbal_rate_limit": float(np.radians(params.beta_rate_max_deg_s))}
 
     def __init__(self, params: SteeringParams, ctx):
@@ -121,6 +122,9 @@ class SteeringAllocator:
             raise InputError("pipeline.allocator.type", f"{self.law_name} steering needs a cluster description "
                              "with dJ_i/dbeta_i (unit_jacobian_derivative)")
         self.geometry = ctx.description
+        # a law that compensates w x H itself (testbed.attitude_laws.momentum_input): not added here
+        law = ctx.stages.get("law")
+        self.adds_gyroscopic = not (law is not None and law.design.get("compensates_internal_momentum"))
         self.law = STEERING_LAWS[self.law_name]
         self.rate_max = np.radians(params.beta_rate_max_deg_s)
         self.period = ctx.control_period
@@ -200,7 +204,7 @@ class SteeringAllocator:
         torque = np.asarray(demand.get("torque", np.zeros(3)), float)
         omega = np.asarray(estimate.get("omega", np.zeros(3)), float)
         momentum = self.geometry.momentum(beta, rotor)
-        gyroscopic = np.cross(omega, momentum)
+        gyroscopic = np.cross(omega, momentum) if self.adds_gyroscopic else np.zeros(3)
         hdot = -(torque + gyroscopic)
         inputs = self._inputs(t, beta)
         if self.limits is not None:
