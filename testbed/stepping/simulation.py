@@ -62,6 +62,7 @@ class Simulation:
         self._out = out.path if isinstance(out, CheckedPath) else output_path(out) if out is not None else None
         self._stages, self._keep_trace = stages, keep_trace
         self._run: RunInProgress | None = None
+        self._closed = False  # the episode's result is made: it is read, no longer stepped
         self._blas = None
         self.result: RunResult | None = None  # the last episode's, once it is closed
         self.reset(seed)
@@ -87,7 +88,7 @@ class Simulation:
             self._blas.__enter__()
         with os_exit_raises():
             self._run = RunInProgress(scenario, self._out, self._keep_trace, stages=self._stages)
-        self.result = None
+        self._closed, self.result = False, None
 
     def step(self, command: dict | None = None) -> dict:
         """Run one control period (sensor, estimator, law, allocator, then the physics to the
@@ -97,7 +98,7 @@ class Simulation:
         steer, `{"allocator": {"gimbal_rates": rates}}` straight to the plant), checked like a
         plug-in's output (a bad one raises InputError and runs nothing). A run that has ended
         (`running` false) is not stepped."""
-        run = self._episode()
+        run = self._open_episode()
         if command is None:
             with os_exit_raises():
                 run.advance(1)
@@ -117,7 +118,8 @@ class Simulation:
 
     def close(self) -> RunResult | None:
         """End the episode: its result (metrics and checks of the periods run, the `.rrd`
-        written whole), also kept as `result`; the BLAS thread limit is lifted."""
+        written whole), also kept as `result`; the BLAS thread limit is lifted. What the
+        episode ended with stays readable (`truth()`, `outputs`, `ticks`...)."""
         self._close_run()
         if self._blas is not None:
             self._blas.__exit__(None, None, None)
@@ -128,9 +130,9 @@ class Simulation:
         return self
 
     def __exit__(self, *exc_info) -> None:
-        if exc_info[0] is not None and self._run is not None:  # the .rrd of a broken episode is removed
-            run, self._run = self._run, None
-            run.__exit__(*exc_info)
+        if exc_info[0] is not None and self._run is not None and not self._closed:
+            self._closed = True  # the .rrd of a broken episode is removed
+            self._run.__exit__(*exc_info)
         self.close()
 
     # --- what can be read between steps -------------------------------------------------------
@@ -189,15 +191,21 @@ class Simulation:
 
     # --- inside ------------------------------------------------------------------------------
     def _episode(self) -> RunInProgress:
+        """The episode under way, or the last one once closed (still readable)."""
         if self._run is None:
-            raise RuntimeError("this Simulation is closed: reset() starts a new episode")
+            raise RuntimeError("this Simulation has no episode: reset() starts one")
         return self._run
 
+    def _open_episode(self) -> RunInProgress:
+        if self._closed:
+            raise RuntimeError("this Simulation's episode is closed: reset() starts a new one")
+        return self._episode()
+
     def _close_run(self) -> None:
-        if self._run is not None:
-            run, self._run = self._run, None
-            with run, os_exit_raises():
-                self.result = run.finish()
+        if self._run is not None and not self._closed:
+            self._closed = True
+            with self._run, os_exit_raises():
+                self.result = self._run.finish()
 
     def _given(self, command) -> dict:
         """slot -> a stage returning the caller's output for this step, the output checked first."""
