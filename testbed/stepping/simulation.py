@@ -142,6 +142,12 @@ class Simulation:
         return self._episode().scenario
 
     @property
+    def disperses(self) -> bool:
+        """Whether a seed draws anything: the scenario has a `sweep.dispersions` block."""
+        sweep = (self._mapping or {}).get("sweep")
+        return isinstance(sweep, dict) and bool(sweep.get("dispersions"))
+
+    @property
     def plant(self):
         """The plant (testbed.plant.Plant): its read-outs (`omega()`, `quat()`, ...) are the truth."""
         return self._episode().plant
