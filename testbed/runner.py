@@ -7,6 +7,7 @@ the state at t, hold its command (zero-order hold) for the Tc / dt physics steps
 from __future__ import annotations
 
 import contextlib
+import functools
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -393,6 +394,7 @@ def _loop(plant, pipeline, recorder, start, stop, trace_every, sim, progress, n_
         first = last
 
 
+@functools.lru_cache(maxsize=64)  # a stepped run asks at every period
 def block_ticks(trace_every: int, longest: int) -> int:
     """The largest number of ticks <= `longest` that divides `trace_every`: blocks of it
     start at every trace sample."""

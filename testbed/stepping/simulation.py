@@ -7,6 +7,7 @@ with the built-in stages is the run `testbed.run` makes, bit for bit. docs/stepp
 
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
 
@@ -38,8 +39,10 @@ class Simulation:
     `reset` starts the file again); `keep_trace`: keep every signal for `close()`'s result.
     `seed`: as `reset(seed)`, for the first episode.
 
-    While a Simulation is open the process's BLAS runs on one thread, as in any run
-    (testbed.runner.one_blas_thread); `close()` (or the `with` block's end) restores it."""
+    While a Simulation is open, in the thread that opened it, os._exit raises (as in any run:
+    testbed.exit_guard, so that a stage calling it fails the run) and the process's BLAS runs
+    on one thread (testbed.runner.one_blas_thread); `close()` (or the `with` block's end)
+    restores both. Step it from the thread that made it."""
 
     def __init__(self, scenario: Scenario | str | Path | dict, overrides: list[str] = (), *,
                  stages: dict | None = None, out: str | Path | None = None, keep_trace: bool = True,
@@ -63,7 +66,7 @@ class Simulation:
         self._stages, self._keep_trace = stages, keep_trace
         self._run: RunInProgress | None = None
         self._closed = False  # the episode's result is made: it is read, no longer stepped
-        self._blas = None
+        self._guards = None  # one BLAS thread and os._exit raising, while open (testbed.runner.run_scenario's)
         self.result: RunResult | None = None  # the last episode's, once it is closed
         self.reset(seed)
 
@@ -83,11 +86,11 @@ class Simulation:
             raise InputError("seed", f"must be an integer in [0, 2^32), got {seed!r}")
         else:
             scenario = seeded_scenario(self._mapping, self._source, int(seed))
-        if self._blas is None:
-            self._blas = one_blas_thread()
-            self._blas.__enter__()
-        with os_exit_raises():
-            self._run = RunInProgress(scenario, self._out, self._keep_trace, stages=self._stages)
+        if self._guards is None:
+            self._guards = contextlib.ExitStack()
+            self._guards.enter_context(one_blas_thread())
+            self._guards.enter_context(os_exit_raises())
+        self._run = RunInProgress(scenario, self._out, self._keep_trace, stages=self._stages)
         self._closed, self.result = False, None
 
     def step(self, command: dict | None = None) -> dict:
@@ -100,8 +103,7 @@ class Simulation:
         (`running` false) is not stepped."""
         run = self._open_episode()
         if command is None:
-            with os_exit_raises():
-                run.advance(1)
+            run.advance(1)
             return self.outputs
         given = self._given(command)
         pipeline = run.pipeline
@@ -109,8 +111,7 @@ class Simulation:
         for slot, stage in given.items():
             pipeline.set_stage(slot, stage, None)
         try:
-            with os_exit_raises():
-                run.advance(1)
+            run.advance(1)
         finally:
             for slot, (stage, check) in saved.items():
                 pipeline.set_stage(slot, stage, check)
@@ -118,12 +119,12 @@ class Simulation:
 
     def close(self) -> RunResult | None:
         """End the episode: its result (metrics and checks of the periods run, the `.rrd`
-        written whole), also kept as `result`; the BLAS thread limit is lifted. What the
-        episode ended with stays readable (`truth()`, `outputs`, `ticks`...)."""
+        written whole), also kept as `result`; the BLAS thread limit and the os._exit guard are
+        lifted. What the episode ended with stays readable (`truth()`, `outputs`, `ticks`...)."""
         self._close_run()
-        if self._blas is not None:
-            self._blas.__exit__(None, None, None)
-            self._blas = None
+        if self._guards is not None:
+            self._guards.close()
+            self._guards = None
         return self.result
 
     def __enter__(self) -> "Simulation":
@@ -210,7 +211,7 @@ class Simulation:
     def _close_run(self) -> None:
         if self._run is not None and not self._closed:
             self._closed = True
-            with self._run, os_exit_raises():
+            with self._run:
                 self.result = self._run.finish()
 
     def _given(self, command) -> dict:
