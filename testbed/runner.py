@@ -220,8 +220,12 @@ class RunInProgress:
         self._context = contextlib.ExitStack()
         rec = (self._context.enter_context(trace.recording_to(out, live=live, footer=footer))
                if out is not None or live is not None else None)
-        self.writer = trace.TraceWriter(rec, scenario.name, self.n_ticks * sim.control_period_s, plant.scene(),
-                                        envelope_rows=sim.envelope_rows) if rec else None
+        try:
+            self.writer = trace.TraceWriter(rec, scenario.name, self.n_ticks * sim.control_period_s, plant.scene(),
+                                            envelope_rows=sim.envelope_rows) if rec else None
+        except BaseException as exc:  # no run: its partial file goes (recording_to)
+            if not self._context.__exit__(type(exc), exc, exc.__traceback__):
+                raise
         self.stream = _ChunkStream(plant, reference, self.reductions, self.writer)
         # a chunk at least every FLUSH_AFTER_S of wall time: a viewer sees the run move, and a killed
         # slow run loses at most that much of its trace

@@ -68,7 +68,11 @@ class Simulation:
         self._closed = False  # the episode's result is made: it is read, no longer stepped
         self._guards = None  # one BLAS thread and os._exit raising, while open (testbed.runner.run_scenario's)
         self.result: RunResult | None = None  # the last episode's, once it is closed
-        self.reset(seed)
+        try:
+            self.reset(seed)
+        except BaseException:
+            self.close()  # nothing built: the guards are lifted again
+            raise
 
     # --- episodes ------------------------------------------------------------------------
     def reset(self, seed: int | None = None) -> None:
