@@ -8,6 +8,9 @@ The public API (docs/api.md, "Python API"):
   state the four slots' interfaces; `StageContext` is what a stage may know when built.
 - `system`, `metric`, `reference`: the other registries (a metric gets the run's `RunData`); `param`: a schema field with its
   bounds; `Plant`: the base of a system's plant; `InputError`: bad input, naming the field.
+- `Simulation(scenario)`: a run stepped a control period at a time (`reset(seed)`, `step()`,
+  `close()`; docs/stepping.md); `run(scenario, stages={"law": obj})` takes Python objects as
+  stages. The Gymnasium environments are in `testbed.gym` (import it to register them).
 
 Each name is imported when first used (PEP 562), so that `import testbed.cli` is quick and a
 Ctrl-C while MuJoCo, SciPy and Dask load reaches the command line's own handling.
@@ -28,6 +31,7 @@ _SOURCES = {
     "reference": "testbed.references.registry",
     "RunData": "testbed.runner", "RunResult": "testbed.runner",
     "param": "testbed.scenario.schema",
+    "Simulation": "testbed.stepping.simulation",
     "system": "testbed.systems.registry",
 }
 

@@ -2,6 +2,7 @@
 
     scenario = testbed.load("reorient_minimax", ["pipeline.allocator.beta_rate_max_deg_s=4"])
     result = testbed.run(scenario, out="runs/x.rrd")     # out=None: no file
+    result = testbed.run(scenario, stages={"law": my_law})  # a Python object as the law
     result.status, result.passed, result.metrics["final_attitude_error_deg"]
     t, omega = result.trace["truth/omega"]               # (N,), (N, 3) [s], [rad/s]
     again = testbed.read("runs/x.rrd")                   # the same structure, from the file
@@ -33,7 +34,7 @@ def load(name_or_path: str | Path, overrides: list[str] = ()) -> Scenario:
 
 def run(scenario: Scenario | str | Path | dict, out: str | Path | None = None,
         overrides: list[str] = (), progress=None, *, keep_trace: bool = True, live=None,
-        prepared=None) -> RunResult:
+        prepared=None, stages: dict | None = None) -> RunResult:
     """Run a scenario (a `Scenario`, a name or path, or a raw mapping as a YAML file holds it:
     strings such as '1e-4' that the project's loader reads as numbers are numbers here too) and
     return its result with the whole trace; `out` (a path) also writes the `.rrd` there, checked
@@ -41,7 +42,10 @@ def run(scenario: Scenario | str | Path | dict, out: str | Path | None = None,
     metrics need (memory flat however long the run); `live()` opens a viewer stream the run is
     also sent to (testbed.recording.live_view.ViewerStream), called once the scenario and `out`
     are checked; `prepared`: what `testbed.runner.prepare(scenario)` built, if it was built to
-    check the scenario before this run."""
+    check the scenario before this run. `stages`: slot -> a Python object that takes that
+    slot's place, with no registration (`{"law": my_law}`: an object with the slot's method,
+    e.g. `torque(t, estimate)`, or a function called as it), held to a plug-in's output checks
+    (docs/stepping.md)."""
     if out is not None and not isinstance(out, (str, os.PathLike)):
         raise InputError("out", f"must be a file path (str or pathlib.Path) or None, got {type(out).__name__}")
     if isinstance(scenario, dict):
@@ -57,7 +61,7 @@ def run(scenario: Scenario | str | Path | dict, out: str | Path | None = None,
     elif out is not None:
         out = output_path(out)  # as given: a trailing "/" matters
     return run_scenario(scenario, out, progress, keep_data=keep_trace,
-                        live=live() if live is not None else None, prepared=prepared)
+                        live=live() if live is not None else None, prepared=prepared, stages=stages)
 
 
 def read(path: str | Path) -> RunResult:

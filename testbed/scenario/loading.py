@@ -266,8 +266,13 @@ def _named(entry: tuple, rest: list[str]):
 
 
 def load_scenario(name_or_path: str, overrides: list[str] = ()) -> Scenario:
+    return parse(*load_mapping(name_or_path, overrides))
+
+
+def load_mapping(name_or_path: str, overrides: list[str] = ()) -> tuple[dict, str]:
+    """The raw mapping of a scenario file (by path or name) with `overrides` applied, and its path."""
     path = resolve_path(name_or_path)
     data = read_yaml(path)
     for assignment in overrides:
         apply_override(data, assignment)
-    return parse(data, str(path))
+    return data, str(path)
