@@ -1370,7 +1370,7 @@ def test_a_signal_ignored_at_start_stays_ignored():
 @pytest.mark.slow
 def test_two_concurrent_runs_to_one_out_leave_a_whole_trace(tmp_path):
     out = tmp_path / "X.rrd"
-    argv = ["run", "cmg_open_loop", "--out", out, "--set", "sim.duration_s=150"]  # about 2 s each
+    argv = ["run", "cmg_open_loop", "--out", out, "--set", "sim.duration_s=60"]  # under a second each, quiet
     procs = [_start(argv, tmp_path) for _ in range(2)]
     results = [proc.communicate(timeout=120) for proc in procs]
     for proc, (stdout, stderr) in zip(procs, results):
