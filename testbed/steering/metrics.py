@@ -144,3 +144,25 @@ def torque_error_rel(run) -> float:
     """torque_error_rms / RMS |M_wanted|: the fraction of the wanted torque not delivered."""
     error, wanted = np.sqrt(run.reduced(TORQUE_SQUARES))
     return float(error / max(wanted, 1e-300))
+
+
+def _fault_detecting(scenario) -> bool:
+    return _steered(scenario) and scenario.stages["allocator"][1].fault_detection
+
+
+@metric("isolated_unit", applies=_fault_detecting, uses=())
+def isolated_unit(run) -> float:
+    """The unit the fault detection declared failed first (1-based; 0: none, no alarm)."""
+    return float(run.statistics["allocator"]["isolated_unit"])
+
+
+@metric("isolation_time_s", applies=_fault_detecting, uses=())
+def isolation_time_s(run) -> float:
+    """Time the first unit was declared failed (its residual over threshold `persistence` ticks) [s]; NaN: none."""
+    return float(run.statistics["allocator"]["isolation_time"])
+
+
+@metric("detection_time_s", applies=_fault_detecting, uses=())
+def detection_time_s(run) -> float:
+    """Time the isolated unit's residual first went over its threshold, in the run that led to isolation [s]; NaN: none."""
+    return float(run.statistics["allocator"]["detection_time"])

@@ -7,12 +7,14 @@
 - reduced_model.py    the reduced (gyrostat) model, reference `reduced_cmg`
 - momentum_envelope.py, envelope_command.py   the envelope and singular surfaces, `testbed envelope`
 - momentum_gauge.py   what momentum the cluster can hold and what torque it can give (its convex hull)
+- faults.py           timed unit faults (`model.faults`) injected into the plant
 - stages.py           the open-loop allocator `gimbal_rate_profile`
 - metrics.py          servo tracking of the held gimbal-rate command
 """
 
 from testbed.systems.cmg_rhombus import envelope_command, metrics, reduced_model, stages  # noqa: F401  (register)
 from testbed.systems.cmg_rhombus.cluster import ClusterGeometry
+from testbed.systems.cmg_rhombus.faults import check_fault_times
 from testbed.systems.cmg_rhombus.model import CmgRhombusParams, build
 from testbed.systems.cmg_rhombus.plant import CmgPlant, CmgRhombus
 from testbed.systems.registry import system
@@ -20,6 +22,7 @@ from testbed.systems.registry import system
 
 @system("cmg_rhombus", CmgRhombusParams)
 def make_plant(params: CmgRhombusParams, sim) -> CmgPlant:
+    check_fault_times(params.faults, sim.end_time_s - sim.control_period_s, "model.faults")  # the last tick
     return CmgPlant(build(params, sim.dt_s, sim.integrator), params, sim.control_period_s)
 
 

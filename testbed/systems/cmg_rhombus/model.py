@@ -19,6 +19,7 @@ from testbed.math.validation import check_principal_inertia
 from testbed.scenario.shipped_files import compile_model, load_spec
 from testbed.scenario.schema import join, param
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTOR_SPEED_NUMERIC, ROTORS, rhombus_axes
+from testbed.systems.cmg_rhombus.faults import FaultEvent, check_faults
 
 GIMBAL_SERVOS = tuple(f"gimbal_rate{i}" for i in range(1, N_CMG + 1))
 ROTOR_SERVOS = tuple(f"rotor_speed{i}" for i in range(1, N_CMG + 1))
@@ -58,6 +59,7 @@ class CmgRhombusParams:
     cancel_initial_momentum: start a zero-momentum spacecraft whatever its initial rate: the
         gimbals start at the set nearest gimbal_angles_deg whose cluster momentum cancels the
         bus's, so the total angular momentum is zero (CmgPlant.initialise).
+    faults: timed hardware faults of the units (faults.py, docs/theory/faults.md), one per unit.
     """
 
     system: str = "cmg_rhombus"
@@ -79,10 +81,12 @@ class CmgRhombusParams:
     rotor_speed_time_constant_s: float = param(0.02, gt=0)
     gimbal_angles_deg: list[float] = param([45.0, -45.0, -45.0, 45.0], length=4)
     cancel_initial_momentum: bool = param(False, doc="move the initial gimbal angles so that the total momentum is 0")
+    faults: list[FaultEvent] = param([], doc="timed unit faults: [{at_s, unit, kind, ...}] (docs/theory/faults.md)")
 
     def validate(self, path: str) -> None:
         check_principal_inertia(self.inertia_kg_m2, join(path, "inertia_kg_m2"))
         check_principal_inertia(self.gimbal_inertia_kg_m2, join(path, "gimbal_inertia_kg_m2"))
+        check_faults(self.faults, N_CMG, join(path, "faults"))
         for i, angle in enumerate(self.gimbal_angles_deg):
             # a gimbal angle is periodic; far beyond a turn the float keeps no fraction of a
             # degree (at 1e308 MuJoCo stops the run at its first step as diverged)

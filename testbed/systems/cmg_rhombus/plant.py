@@ -14,10 +14,12 @@ from testbed.math.quaternion import quat_conj, quat_rotate
 from testbed.plant import Plant
 from testbed.recording.scene import moving_parts
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTORS, ClusterGeometry
+from testbed.systems.cmg_rhombus.faults import FaultInjector
 from testbed.systems.cmg_rhombus.gimbal_servo import FeedForwardServo, IntVelocityServo
 from testbed.systems.cmg_rhombus.model import GIMBAL_MOTORS, GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS
 from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel
-from testbed.systems.cmg_rhombus.momentum_envelope import singular_surface_points, surface_color, surface_name
+from testbed.systems.cmg_rhombus.momentum_envelope import (remaining_cluster_surfaces, singular_surface_points,
+                                                           surface_color, surface_name)
 
 ENVELOPE_DIRECTIONS = 1500  # directions per surface in the trace's momentum view (testbed envelope: 4000)
 
@@ -151,6 +153,7 @@ class CmgPlant(Plant):
                                           params.gimbal_torque_limit_nm)
         else:
             self.servo = IntVelocityServo(self.bus, self.data, rate_limit)
+        self.faults = FaultInjector(self, params.faults) if params.faults else None
 
     def initialise(self, initial) -> None:
         self.bus.initialise(self.data, initial.omega, initial.quat)
@@ -186,6 +189,8 @@ class CmgPlant(Plant):
         signals = super().truth()
         signals.update(gimbal_angle=self._gimbal_angle.copy(), gimbal_rate=self._gimbal_rate.copy(),
                        gimbal_rate_command=self.servo.held_command(self.data), rotor_rate=self._rotor_rate.copy())
+        if self.faults is not None:
+            signals["fault"] = self.faults.codes.copy()  # each unit's active fault (faults.FAULT_CODES)
         return signals
 
     def derived_signals(self, recorder) -> dict[str, np.ndarray]:
@@ -197,13 +202,19 @@ class CmgPlant(Plant):
                 "truth/singularity_measure": self.geometry.singularity_measure(beta)[:, None]}
 
     def actuator_state(self) -> dict[str, np.ndarray]:
-        """What the gimbal encoders and the gimbal and rotor tachometers report."""
-        return {"gimbal_angle": self._gimbal_angle.copy(), "gimbal_rate": self._gimbal_rate.copy(),
+        """What the gimbal encoders and the gimbal and rotor tachometers report (a faulty
+        gimbal-rate tachometer as it reads: faults.py)."""
+        rate = self._gimbal_rate.copy()
+        if self.faults is not None and self.faults.sensors_faulty:
+            rate = self.faults.tachometer(rate)
+        return {"gimbal_angle": self._gimbal_angle.copy(), "gimbal_rate": rate,
                 "rotor_rate": self._rotor_rate.copy()}
 
     def apply(self, command: dict[str, np.ndarray]) -> None:
         if "body_torque" in command:  # the base class's one actuator, asked for only when commanded
             super().apply(command)
+        if self.faults is not None:
+            self.faults.update(self.data.time)
         self.servo.apply(self.data, command.get("gimbal_rates"))
 
     def internal_momentum_body(self) -> np.ndarray:
@@ -235,13 +246,18 @@ class CmgPlant(Plant):
                 part["arrows"] = [{"vector": (self.geometry.rotor_momentum[i] * axis).tolist(), "label": f"h{i + 1}"}]
         g = self.geometry
         surfaces = singular_surface_points(g.alpha, ENVELOPE_DIRECTIONS, g.h, g.gimbal_axes)
+        drawn = [{"name": surface_name(p), "points": points, "color": surface_color(p)} for p, points in surfaces.items()]
+        for unit in sorted({fault.unit for fault in (self.faults.pending if self.faults else ())}):
+            # the cluster a fault leaves (momentum_envelope.remaining_cluster_surfaces)
+            remaining = remaining_cluster_surfaces(g.gimbal_axes, [unit - 1], ENVELOPE_DIRECTIONS, g.h)
+            drawn += [{"name": f"without_unit{unit}/{surface_name(p)}", "points": points, "color": surface_color(p)}
+                      for p, points in remaining.items()]
         return super().scene() | {
             "body_momenta": {"truth/cmg_momentum": "cmg_momentum"},
             "units": {"cmg_momentum": "N m s", "singularity_measure": ""},
             "moving_parts": parts,
             "momentum_space": {
                 "title": "cluster momentum H [N m s]: envelope, singular surfaces, H(t)",
-                "surfaces": [{"name": surface_name(p), "points": points, "color": surface_color(p)}
-                             for p, points in surfaces.items()],
+                "surfaces": drawn,
                 "path": "truth/cmg_momentum", "measure": "truth/singularity_measure",
                 "measure_range": [0.0, (N_CMG / 3.0) ** 1.5]}}
