@@ -17,10 +17,13 @@ from testbed.metrics import metric
 from testbed.math.quaternion import quat_angle, quat_conj, quat_mul
 from testbed.recording.reductions import Last, MaxAbs, Mean, NanMax
 from testbed.steering import STEERING_LAWS
+from testbed.steering.stage import SteeringParams
 
 
 def _steered(scenario) -> bool:
-    return scenario.stages["allocator"][0] in STEERING_LAWS
+    """A steering allocator: a law of testbed.steering, or a stage built on their parameters."""
+    return scenario.stages["allocator"][0] in STEERING_LAWS or isinstance(scenario.stages["allocator"][1],
+                                                                        SteeringParams)
 
 
 def _slewed(scenario) -> bool:

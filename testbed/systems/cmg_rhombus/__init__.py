@@ -8,11 +8,12 @@
 - momentum_envelope.py, envelope_command.py   the envelope and singular surfaces, `testbed envelope`
 - momentum_gauge.py   what momentum the cluster can hold and what torque it can give (its convex hull)
 - faults.py           timed unit faults (`model.faults`) injected into the plant
+- vscmg_allocator.py  the allocator `vscmg`: variable-speed rotors, Schaub-Junkins weighted steering
 - stages.py           the open-loop allocator `gimbal_rate_profile`
 - metrics.py          servo tracking of the held gimbal-rate command
 """
 
-from testbed.systems.cmg_rhombus import envelope_command, metrics, reduced_model, stages  # noqa: F401  (register)
+from testbed.systems.cmg_rhombus import envelope_command, metrics, reduced_model, stages, vscmg_allocator  # noqa: F401  (register)
 from testbed.systems.cmg_rhombus.cluster import ClusterGeometry
 from testbed.systems.cmg_rhombus.faults import check_fault_times
 from testbed.systems.cmg_rhombus.model import CmgRhombusParams, build

@@ -14,7 +14,7 @@ from testbed.math.quaternion import quat_conj, quat_rotate
 from testbed.plant import Plant
 from testbed.recording.scene import moving_parts
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTORS, ClusterGeometry
-from testbed.systems.cmg_rhombus.faults import FaultInjector
+from testbed.systems.cmg_rhombus.faults import FAULT_CODES, FaultInjector
 from testbed.systems.cmg_rhombus.gimbal_servo import FeedForwardServo, IntVelocityServo
 from testbed.systems.cmg_rhombus.model import GIMBAL_MOTORS, GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS
 from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel
@@ -67,6 +67,9 @@ class CmgRhombus(FreeBus):
         # the servos' rate commands, then the motors' torques when the model has them
         self.gimbal_servo_ctrl = evenly_spaced(np.concatenate([self.gimbal_actuator_ids, self.gimbal_motor_ids]))
         # every dof that is not the bus free joint belongs to a gimbal or a rotor
+        rotor = self.rotor_actuator_ids[0]  # the speed range the builder gave every rotor loop
+        if model.actuator_ctrllimited[rotor]:
+            self.geometry.rotor_speed_range = tuple(float(v) for v in model.actuator_ctrlrange[rotor])
         bus_dofs = set(range(self.qvel_adr, self.qvel_adr + 6))
         self.internal_dofs = np.array([i for i in range(model.nv) if i not in bus_dofs])
 
@@ -132,7 +135,7 @@ class CmgPlant(Plant):
     """Truth adds gimbal angles and rates, the gimbal-rate command the servos held, rotor
     rates and the cluster momentum H (body frame)."""
 
-    actuators = {"body_torque": (3,), "gimbal_rates": (N_CMG,)}
+    actuators = {"body_torque": (3,), "gimbal_rates": (N_CMG,), "rotor_speeds": (N_CMG,)}
 
     def __init__(self, model, params, control_period: float):
         """`params`: the validated CmgRhombusParams `model` was built from (its servo model and
@@ -215,6 +218,12 @@ class CmgPlant(Plant):
             super().apply(command)
         if self.faults is not None:
             self.faults.update(self.data.time)
+        speeds = command.get("rotor_speeds")
+        if speeds is not None:  # variable-speed rotors (MuJoCo clips to the speed range)
+            speeds = np.asarray(speeds, dtype=float)
+            if self.faults is not None:  # a spun-down rotor's motor is off
+                speeds = np.where(self.faults.codes == FAULT_CODES["spin_down"], 0.0, speeds)
+            self.bus.set_rotor_speed_command(self.data, speeds)
         self.servo.apply(self.data, command.get("gimbal_rates"))
 
     def internal_momentum_body(self) -> np.ndarray:
