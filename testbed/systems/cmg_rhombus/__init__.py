@@ -7,6 +7,7 @@
 - reduced_model.py    the reduced (gyrostat) model, reference `reduced_cmg`
 - momentum_envelope.py, envelope_command.py   the envelope and singular surfaces, `testbed envelope`
 - momentum_gauge.py   what momentum the cluster can hold and what torque it can give (its convex hull)
+- rotor_imbalance.py  rotor static and dynamic imbalance as their force and torque on the bus
 - faults.py           timed unit faults (`model.faults`) injected into the plant
 - vscmg_allocator.py  the allocator `vscmg`: variable-speed rotors, Schaub-Junkins weighted steering
 - stages.py           the open-loop allocator `gimbal_rate_profile`

@@ -61,6 +61,11 @@ class CmgRhombusParams:
         bus's, so the total angular momentum is zero (CmgPlant.initialise).
     rotor_speed_range_rpm: the speeds the rotor motors can hold, [min, max] around
         rotor_speed_rpm; given, the rotors may be commanded other speeds (allocator vscmg).
+    gimbal_friction_nm, gimbal_damping_nms_rad: the gimbal bearings' Coulomb friction (MuJoCo's
+        joint frictionloss) and viscous friction (joint damping), both between gimbal and bus;
+        the servo holds the commanded rate against them.
+    rotor_static_imbalance_kg_m, rotor_dynamic_imbalance_kg_m2: Us and Ud of each rotor, whose
+        periodic force and torque on the bus rotor_imbalance.py applies (Basilisk's simple jitter).
     faults: timed hardware faults of the units (faults.py, docs/theory/faults.md), one per unit.
     """
 
@@ -86,6 +91,10 @@ class CmgRhombusParams:
     rotor_speed_range_rpm: list[float] | None = param(None, length=2, gt=0, doc=(
         "[min, max] speed the rotor motors can hold (the speed loops clip their command to it); "
         "None: fixed-speed rotors"))
+    gimbal_friction_nm: float = param(0.0, ge=0, doc="Coulomb friction torque of each gimbal bearing (MuJoCo frictionloss)")
+    gimbal_damping_nms_rad: float = param(0.0, ge=0, doc="viscous friction of each gimbal bearing (MuJoCo joint damping)")
+    rotor_static_imbalance_kg_m: list[float] = param([0.0] * 4, length=4, ge=0, doc="Us of each rotor (simple jitter)")
+    rotor_dynamic_imbalance_kg_m2: list[float] = param([0.0] * 4, length=4, ge=0, doc="Ud of each rotor (simple jitter)")
     faults: list[FaultEvent] = param([], doc="timed unit faults: [{at_s, unit, kind, ...}] (docs/theory/faults.md)")
 
     def validate(self, path: str) -> None:
@@ -153,6 +162,10 @@ def build(params: CmgRhombusParams, dt: float, integrator: str = "RK4") -> mujoc
             speed.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
             speed.ctrlrange = np.asarray(params.rotor_speed_range_rpm) * np.pi / 30.0
         _apply_limits(spec, params, i)
+        if params.gimbal_friction_nm or params.gimbal_damping_nms_rad:
+            joint = spec.joint(GIMBALS[i])
+            joint.frictionloss = params.gimbal_friction_nm
+            joint.damping = [params.gimbal_damping_nms_rad, 0.0, 0.0]  # MuJoCo 4: the linear coefficient first
         if params.servo_model != "feedforward":
             spec.delete(spec.actuator(GIMBAL_MOTORS[i]))  # the intvelocity servo has no motor
 

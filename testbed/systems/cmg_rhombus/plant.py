@@ -5,6 +5,8 @@
 (gimbal_servo.py) takes the gimbal-rate commands.
 """
 
+import functools
+
 import mujoco
 import numpy as np
 
@@ -18,6 +20,7 @@ from testbed.systems.cmg_rhombus.faults import FAULT_CODES, FaultInjector
 from testbed.systems.cmg_rhombus.gimbal_servo import FeedForwardServo, IntVelocityServo
 from testbed.systems.cmg_rhombus.model import GIMBAL_MOTORS, GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS
 from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel
+from testbed.systems.cmg_rhombus.rotor_imbalance import RotorImbalance
 from testbed.systems.cmg_rhombus.momentum_envelope import (remaining_cluster_surfaces, singular_surface_points,
                                                            surface_color, surface_name)
 
@@ -157,6 +160,23 @@ class CmgPlant(Plant):
         else:
             self.servo = IntVelocityServo(self.bus, self.data, rate_limit)
         self.faults = FaultInjector(self, params.faults) if params.faults else None
+        unbalanced = any(params.rotor_static_imbalance_kg_m) or any(params.rotor_dynamic_imbalance_kg_m2)
+        self.imbalance = RotorImbalance(self.bus, model, self.data, params.rotor_static_imbalance_kg_m,
+                                        params.rotor_dynamic_imbalance_kg_m2) if unbalanced else None
+
+    def step(self, nstep: int) -> None:
+        """`nstep` physics steps; with rotor imbalance, its wrench renewed before each (rotor_imbalance.py)."""
+        if self.imbalance is None:
+            return super().step(nstep)
+        t0 = self.data.time
+        self.imbalance.step(nstep)
+        self.check_state(t0, nstep)
+
+    def stepper(self, nstep: int):
+        """Plant.stepper's fast path (mj_step, checked every few ticks) unless the rotors are unbalanced."""
+        if self.imbalance is None:
+            return functools.partial(mujoco.mj_step, self.model, self.data, nstep)
+        return functools.partial(self.step, nstep)
 
     def initialise(self, initial) -> None:
         self.bus.initialise(self.data, initial.omega, initial.quat)
