@@ -180,3 +180,23 @@ def test_no_false_alarm_without_a_fault_and_the_shipped_slew_is_unchanged():
     assert np.isnan(result.metrics["isolation_time_s"])
     _, residual = result.trace["allocator/fault_residual"]
     assert np.nanmax(residual) < 0.5  # the largest residual is under half its threshold
+
+
+@pytest.mark.slow
+def test_the_fault_campaigns_first_cases(tmp_path, capsys):
+    """Cases 0-1 of reorient_fault_campaign (the same cases as in the full campaign: each draws
+    from its own seed) and case 0 of reorient_fault_free_campaign: every drawn fault is isolated on its
+    own unit, after its start; no fault-free slew isolates a unit (no false alarm)."""
+    import json
+
+    assert main(["campaign", "reorient_fault_campaign", "--set", "sweep.samples=2", "--out", str(tmp_path / "f"),
+                 "--workers", "1", "--json"]) in (0, 1)
+    rows = json.loads(capsys.readouterr().out)
+    assert len(rows) == 2 and all(r["status"] == "ok" for r in rows)
+    for row in rows:
+        assert row["isolated_unit"] == row["applied:model.faults.0.unit"]
+        assert 0 < row["fault_isolation_delay_s"] <= 5.0
+    assert main(["campaign", "reorient_fault_free_campaign", "--set", "sweep.samples=1", "--out",
+                 str(tmp_path / "ff"), "--workers", "1", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [r["isolated_unit"] for r in rows] == [0] and all(r["passed"] for r in rows)

@@ -30,6 +30,13 @@ through the servo, whose stiffness gives way to the gyroscopic torque on the gim
 can pass a stop by that compliance (up to 0.006 deg on the 30 deg/s near-singular slew, docs/theory/steering.md
 "Gimbal limits").
 
+Fault detection (optional, every law): `fault_detection: true` compares each unit's measured gimbal
+rate with the command it held and its rotor speed with the nominal one (testbed.steering.fault_isolation,
+thresholds `fault_rate_residual_deg_s`, `fault_rate_residual_rel`, `fault_speed_residual_rel`,
+`fault_persistence`); a unit declared failed has its column of J (and of dJ/dbeta) zeroed, so the
+law runs on the other units' columns, and its command pinned at 0 (a zero column takes any rate
+without torque). `fault_residual` and `failed_units` are recorded; docs/theory/faults.md.
+
 Near-singular default: singular values of J below STAGE_RCOND = 1e-2 of the largest count as
 zero (the library's own default is 1e-9). Then the demand component along the nearly singular
 direction is dropped (the least-squares projection onto the well-conditioned range is

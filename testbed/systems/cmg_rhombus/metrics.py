@@ -94,3 +94,23 @@ def min_rotor_speed_rpm(run) -> float:
 def max_rotor_speed_rpm(run) -> float:
     """max over trace samples and rotors of the true rotor speed relative to its gimbal [rpm]."""
     return float(run.reduced(SPEED_EXTREMES)[1] * 30.0 / np.pi)
+
+
+def _faulted_and_watched(scenario) -> bool:
+    """A fault is injected (model.faults) and the allocator looks for it (fault_detection)."""
+    return (scenario.system == "cmg_rhombus" and bool(scenario.model.faults)
+            and bool(getattr(scenario.stages["allocator"][1], "fault_detection", False)))
+
+
+@metric("fault_isolated_correctly", applies=_faulted_and_watched, uses=())
+def fault_isolated_correctly(run) -> float:
+    """1 when the unit the detection declared failed first is the first unit model.faults breaks, else 0."""
+    first = min(run.scenario.model.faults, key=lambda f: f.at_s)
+    return float(run.statistics["allocator"]["isolated_unit"] == first.unit)
+
+
+@metric("fault_isolation_delay_s", applies=_faulted_and_watched, uses=())
+def fault_isolation_delay_s(run) -> float:
+    """Time from the first fault's at_s to the first isolation [s] (NaN: none; < 0: a false alarm before it)."""
+    first = min(run.scenario.model.faults, key=lambda f: f.at_s)
+    return float(run.statistics["allocator"]["isolation_time"] - first.at_s)
