@@ -39,6 +39,11 @@ def torque_of_commands(beta, rates, omega, rotor_momentum):
     return -(hdot + np.cross(omega, momentum))
 
 
+def relative_rms(delivered, wanted) -> float:
+    """RMS |delivered - wanted| / RMS |wanted| over the samples (the torque_error_rel definition)."""
+    return float(np.sqrt(np.mean(np.sum((delivered - wanted) ** 2, axis=1)) / np.mean(np.sum(wanted**2, axis=1))))
+
+
 @pytest.mark.slow
 def test_a_gimbal_stuck_mid_slew_is_isolated_and_the_slew_ends_on_three_units():
     """Validation 1: reorient_gimbal_stuck (reorient_minimax's slew, gimbal 2 stuck at t = 20 s)."""
@@ -67,8 +72,7 @@ def test_a_gimbal_stuck_mid_slew_is_isolated_and_the_slew_ends_on_three_units():
     # well-conditioned remaining J (min sqrt det 0.33) delivers the demand to round-off
     delivered = torque_of_commands(beta[:n][after], rates[after], omega[:n][after], 25.0)
     wanted = law_torque[after]
-    error = np.sqrt(np.mean(np.sum((delivered - wanted) ** 2, axis=1)) / np.mean(np.sum(wanted**2, axis=1)))
-    assert error <= 1e-3
+    assert relative_rms(delivered, wanted) <= 1e-6  # 5.8e-9 measured; the validation asks 1e-3
     # the stuck gimbal stays put: its drive holds it to 0.05 deg/s (a physical band: the servo's
     # disturbance observer learning the gyroscopic torque once the command drops to 0)
     assert np.max(np.abs(np.degrees(true_rates[:n][t >= 20.05, 1]))) <= 0.05

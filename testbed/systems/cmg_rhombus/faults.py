@@ -88,6 +88,7 @@ class FaultInjector:
 
     def __init__(self, plant, faults: list[FaultEvent]):
         self.plant = plant
+        self.planned = list(faults)
         self.pending = sorted(faults, key=lambda f: f.at_s)
         units = len(plant.bus.gimbal_qpos_adr)
         self.codes = np.zeros(units)            # truth/fault

@@ -276,7 +276,7 @@ class CmgPlant(Plant):
         g = self.geometry
         surfaces = singular_surface_points(g.alpha, ENVELOPE_DIRECTIONS, g.h, g.gimbal_axes)
         drawn = [{"name": surface_name(p), "points": points, "color": surface_color(p)} for p, points in surfaces.items()]
-        for unit in sorted({fault.unit for fault in (self.faults.pending if self.faults else ())}):
+        for unit in sorted({fault.unit for fault in (self.faults.planned if self.faults else ())}):
             # the cluster a fault leaves (momentum_envelope.remaining_cluster_surfaces)
             remaining = remaining_cluster_surfaces(g.gimbal_axes, [unit - 1], ENVELOPE_DIRECTIONS, g.h)
             drawn += [{"name": f"without_unit{unit}/{surface_name(p)}", "points": points, "color": surface_color(p)}
