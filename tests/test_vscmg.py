@@ -115,3 +115,19 @@ def test_a_speed_range_the_rotors_cannot_hold_is_refused(override, field, words,
     err = capfd.readouterr().err
     assert code == 2 and err.startswith(f"error: {field}: ") and all(w in err for w in words), err
     assert "Traceback" not in err and not out.exists()
+
+
+def test_a_rotor_that_spins_down_leaves_its_speed_range_and_is_isolated():
+    """spin_down on a variable-speed rotor: its motor is off, the speed range no longer holds it,
+    W = W(t0) exp(-(t - t0) / tau) (tau = 2 s); the fault detection drops unit 3 at the 1 %
+    threshold: 0.02 s of decay plus 3 ticks of persistence after the fault's tick."""
+    result = testbed.run("reorient_near_singular_vscmg", overrides=[
+        "model.faults=[{at_s: 10, unit: 3, kind: spin_down, time_constant_s: 2}]", "sim.duration_s=14",
+        "checks={}", "pipeline.allocator.fault_detection=true"])
+    t, speeds = result.trace["truth/rotor_rate"]
+    start = np.searchsorted(t, 10.0)
+    late = t >= 10.5
+    expected = speeds[start, 2] * np.exp(-(t[late] - t[start]) / 2.0)
+    assert np.max(np.abs(speeds[late, 2] / expected - 1.0)) <= 1e-3
+    assert result.metrics["isolated_unit"] == 3
+    assert 10.0 < result.metrics["isolation_time_s"] <= 10.25

@@ -131,6 +131,7 @@ class FaultInjector:
             gain = plant.geometry.spin_inertia[i] / fault.time_constant_s  # velocity loop: kv (ctrl - Omega)
             model.actuator_gainprm[rotor, 0] = gain
             model.actuator_biasprm[rotor, 2] = -gain
+            model.actuator_ctrllimited[rotor] = 0  # a speed range must not hold the stopped motor's 0
             data.ctrl[rotor] = 0.0
         elif fault.kind == "sensor_bias":
             self.rate_bias[i] = np.radians(fault.bias_deg_s)

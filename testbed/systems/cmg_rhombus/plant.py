@@ -69,10 +69,10 @@ class CmgRhombus(FreeBus):
         self.gimbal_ctrl = evenly_spaced(self.gimbal_actuator_ids)
         # the servos' rate commands, then the motors' torques when the model has them
         self.gimbal_servo_ctrl = evenly_spaced(np.concatenate([self.gimbal_actuator_ids, self.gimbal_motor_ids]))
-        # every dof that is not the bus free joint belongs to a gimbal or a rotor
         rotor = self.rotor_actuator_ids[0]  # the speed range the builder gave every rotor loop
         if model.actuator_ctrllimited[rotor]:
             self.geometry.rotor_speed_range = tuple(float(v) for v in model.actuator_ctrlrange[rotor])
+        # every dof that is not the bus free joint belongs to a gimbal or a rotor
         bus_dofs = set(range(self.qvel_adr, self.qvel_adr + 6))
         self.internal_dofs = np.array([i for i in range(model.nv) if i not in bus_dofs])
 
