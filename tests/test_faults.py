@@ -116,6 +116,8 @@ def test_the_three_unit_envelope_is_the_support_function_of_the_remaining_units(
     ("[{at_s: 20, unit: 2, kind: spin_down}]", "model.faults[0].time_constant_s", ("needs it",)),
     ("[{at_s: 20, unit: 2, kind: stuck, bias_deg_s: 1}]", "model.faults[0].bias_deg_s", ("not a parameter",)),
     ("[{at_s: 20, unit: 0, kind: stuck}]", "model.faults[0].unit", (">= 1",)),
+    ("[{at_s: 20, unit: 2, kind: spin_down, time_constant_s: 0.001}]", "model.faults[0].time_constant_s",
+     ("too short for timestep",)),
 ])
 def test_a_bad_fault_is_refused_before_the_run(fault, field, words, capfd, tmp_path):
     out = tmp_path / "never.rrd"

@@ -224,6 +224,9 @@ def describe(cls, path: str = "") -> list[dict]:
             default = "required"
         rows.append({"key": fpath, "type": _shown_type(tp), "unit": unit_of(f.name), "default": default,
                      "bounds": bounds_of(f.name, dict(f.metadata)), "meaning": f.metadata.get("doc", "")})
+        item = get_args(tp)[0] if get_origin(tp) is list else None
+        if item is not None and dataclasses.is_dataclass(item):  # a list of records: each item's fields
+            rows.extend(describe(item, f"{fpath}[]"))
     return rows
 
 

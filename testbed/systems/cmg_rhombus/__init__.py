@@ -17,14 +17,15 @@
 from testbed.systems.cmg_rhombus import envelope_command, metrics, reduced_model, stages, vscmg_allocator  # noqa: F401  (register)
 from testbed.systems.cmg_rhombus.cluster import ClusterGeometry
 from testbed.systems.cmg_rhombus.faults import check_fault_times
-from testbed.systems.cmg_rhombus.model import CmgRhombusParams, build
+from testbed.systems.cmg_rhombus.model import MAX_DT_OVER_ROTOR_TAU, CmgRhombusParams, build
 from testbed.systems.cmg_rhombus.plant import CmgPlant, CmgRhombus
 from testbed.systems.registry import system
 
 
 @system("cmg_rhombus", CmgRhombusParams)
 def make_plant(params: CmgRhombusParams, sim) -> CmgPlant:
-    check_fault_times(params.faults, sim.end_time_s - sim.control_period_s, "model.faults")  # the last tick
+    check_fault_times(params.faults, sim.end_time_s - sim.control_period_s,  # the last tick
+                      sim.dt_s / MAX_DT_OVER_ROTOR_TAU, sim.dt_s)
     return CmgPlant(build(params, sim.dt_s, sim.integrator), params, sim.control_period_s)
 
 

@@ -50,7 +50,7 @@ class FaultEvent:
     kind: FaultKind = param(doc="stuck, motor_off, rate_limit, spin_down, sensor_bias or sensor_dropout")
     rate_limit_deg_s: float | None = param(None, gt=0, doc="rate_limit: the lower gimbal-rate limit")
     time_constant_s: float | None = param(None, gt=0, doc="spin_down: tau of the rotor's decay")
-    bias_deg_s: float | None = param(None, doc="sensor_bias: the tachometer's bias jump")
+    bias_deg_s: float | None = param(None, ge=-1e4, le=1e4, doc="sensor_bias: the tachometer's bias jump")
 
     def validate(self, path: str) -> None:
         wanted = KIND_PARAMETER.get(self.kind)
@@ -76,11 +76,16 @@ def check_faults(faults: list[FaultEvent], units: int, path: str = "model.faults
         first[fault.unit] = i
 
 
-def check_fault_times(faults: list[FaultEvent], end_time: float, path: str = "model.faults") -> None:
-    """Refuse a fault that would start after the run's last control tick."""
+def check_fault_times(faults: list[FaultEvent], end_time: float, shortest_tau: float, dt: float,
+                      path: str = "model.faults") -> None:
+    """Refuse a fault that would start after the run's last control tick [s], and a spin-down whose
+    time constant is below `shortest_tau` [s], too fast for RK4 at step dt (the rotor loop's bound)."""
     for i, fault in enumerate(faults):
         if fault.at_s > end_time + TICK_SLACK:
             raise InputError(f"{path}[{i}].at_s", f"{fault.at_s:g} s is past the run's last control tick at {end_time:g} s")
+        if fault.time_constant_s is not None and fault.time_constant_s < shortest_tau:
+            raise InputError(f"{path}[{i}].time_constant_s", f"{fault.time_constant_s:g} s is too short for "
+                             f"timestep {dt:g} s under RK4 (at least {shortest_tau:g} s)")
 
 
 class FaultInjector:
