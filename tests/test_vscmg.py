@@ -83,8 +83,10 @@ def test_the_variable_speed_cluster_steers_out_of_a_singular_set():
     """Validation 3: reorient_near_singular's slew started at beta = 0, where the gimbals alone have
     rank 1 (sqrt det(J J^T) = 0): pinv cannot give the torque, vscmg gives it exactly."""
     short = ["model.gimbal_angles_deg=[0, 0, 0, 0]", "sim.duration_s=25", "checks={}"]
-    result = testbed.run("reorient_near_singular_vscmg", overrides=short)
+    result = testbed.run("reorient_near_singular_vscmg", overrides=short + ["pipeline.allocator.fault_detection=true"])
     m = result.metrics
+    # the fault detection reads the rotors against their commanded speeds: no false alarm
+    assert m["isolated_unit"] == 0 and np.nanmax(result.trace["allocator/fault_residual"][1]) < 0.5
     assert m["min_singularity_measure"] == 0.0  # the gimbal part starts exactly singular
     wanted, delivered = delivered_torque(result)
     assert relative_rms(delivered, wanted) <= 1e-6  # computed here from the commands and eq. (15): round-off, 1e-16 measured

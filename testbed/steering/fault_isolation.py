@@ -4,11 +4,11 @@ At control tick k the steering compares what each unit does with what it was tol
 (docs/theory/faults.md, "Detection and isolation"):
 
     gimbal rate   r_i = |b'_i(t_k) - c_i(k-1)|       over  a + rho |c_i(k-1)|
-    rotor speed   s_i = |W_i(t_k) - W_nom| / W_nom    over  sigma
+    rotor speed   s_i = |W_i(t_k) - W_cmd| / W_nom    over  sigma
 
 b'_i the tachometer's rate at the end of the tick the command c_i(k-1) was held over (a servo
-that follows its command ends the tick on it), W_i the rotor tachometer and W_nom the nominal
-speed. A unit whose residual stays over its threshold for `persistence` consecutive ticks is
+that follows its command ends the tick on it), W_i the rotor tachometer, W_cmd the speed
+commanded over that tick (the nominal W_nom for fixed-speed rotors). A unit whose residual stays over its threshold for `persistence` consecutive ticks is
 declared failed at that tick; from then on the steering runs on the other units' columns of J
 (the failed unit's column is zeroed and its command pinned at 0: stage.py). The relative part
 rho keeps a unit whose command is large but well followed from tripping on the servo's
@@ -45,20 +45,22 @@ class FaultIsolation:
         mask[self.failed] = False
         return mask
 
-    def residuals(self, commanded, actuators) -> np.ndarray:
-        """Each unit's largest residual over its threshold (> 1: over), (units,)."""
+    def residuals(self, commanded, actuators, speeds=None) -> np.ndarray:
+        """Each unit's largest residual over its threshold (> 1: over), (units,); `speeds`: the rotor
+        speeds commanded over the last tick (variable-speed rotors), else the nominal one."""
         rate = np.asarray(actuators["gimbal_rate"], float)
         commanded = np.asarray(commanded, float)
         ratio = np.abs(rate - commanded) / (self.rate_floor + self.rate_share * np.abs(commanded))
         if self.nominal_speed and "rotor_rate" in actuators:
-            speed = np.abs(np.asarray(actuators["rotor_rate"], float) - self.nominal_speed) / abs(self.nominal_speed)
+            wanted = self.nominal_speed if speeds is None else np.asarray(speeds, float)
+            speed = np.abs(np.asarray(actuators["rotor_rate"], float) - wanted) / abs(self.nominal_speed)
             ratio = np.maximum(ratio, speed / self.speed_share)
         return ratio
 
-    def update(self, t: float, commanded, actuators) -> np.ndarray:
+    def update(self, t: float, commanded, actuators, speeds=None) -> np.ndarray:
         """One tick's test of the command held until now against the read-outs at t [s]; returns
         the residual ratios (recorded as `allocator/fault_residual`)."""
-        ratio = self.residuals(commanded, actuators)
+        ratio = self.residuals(commanded, actuators, speeds)
         over = ratio > 1.0
         self.first_over[over & (self.count == 0)] = t
         self.count = np.where(over, self.count + 1, 0)

@@ -88,7 +88,7 @@ class VscmgAllocator(SteeringAllocator):
         wheel_columns = g.spin_axes(beta).T * g.spin_inertia
         failed = ()
         if self.isolation is not None:
-            residual = self.isolation.update(t, self.previous, actuators)
+            residual = self.isolation.update(t, self.previous, actuators, self.speed_command)
             self.statistics.update(self.isolation.statistics)
             failed = self.isolation.failed
             gimbal_columns[:, failed] = 0.0
