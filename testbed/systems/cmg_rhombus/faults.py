@@ -99,10 +99,10 @@ class FaultInjector:
         self.codes = np.zeros(units)            # truth/fault
         self.rate_bias = np.zeros(units)        # what the tachometers add [rad/s]
         self.rate_dead = np.zeros(units, bool)  # tachometers that read 0
-        self.started: list[tuple[float, FaultEvent]] = []
 
     @property
     def sensors_faulty(self) -> bool:
+        """Some tachometer reads other than the truth."""
         return bool(np.any(self.rate_bias) or np.any(self.rate_dead))
 
     def update(self, t: float) -> None:
@@ -110,7 +110,6 @@ class FaultInjector:
         while self.pending and self.pending[0].at_s <= t + TICK_SLACK:
             fault = self.pending.pop(0)
             self._start(fault)
-            self.started.append((t, fault))
             self.codes[fault.unit - 1] = FAULT_CODES[fault.kind]
 
     def tachometer(self, rates: np.ndarray) -> np.ndarray:
