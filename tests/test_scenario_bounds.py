@@ -128,6 +128,31 @@ PINNED = {
         "rate_limit_violations": {"max": 0},
         "momentum_drift_rel": {"max": 1.0e-9},
     },
+    "attitude_hold_mekf": {
+        "attitude_knowledge_error_arcsec": {"max": 13},
+        "attitude_nees_mean": {"min": 2.5, "max": 3.5},
+        "bias_within_3sigma_fraction": {"min": 0.99},
+        "rate_limit_violations": {"max": 0},
+    },
+    "attitude_nees_campaign": {
+        "attitude_nees_mean": {"min": 2.0, "max": 4.0},
+    },
+    "attitude_outage_mekf": {
+        "attitude_nees_mean": {"min": 2.0, "max": 4.0},
+        "bias_within_3sigma_fraction": {"min": 0.99},
+    },
+    "slew_quaternion_feedback_ideal": {
+        "final_pointing_error_deg": {"max": 0.001},
+        "pointing_rms_last_20s_arcsec": {"max": 5},
+        "rate_limit_violations": {"max": 0},
+        "momentum_drift_rel": {"max": 1e-09},
+    },
+    "slew_quaternion_feedback_mekf": {
+        "final_pointing_error_deg": {"max": 0.03},
+        "pointing_rms_last_20s_arcsec": {"max": 50},
+        "rate_limit_violations": {"max": 0},
+        "momentum_drift_rel": {"max": 1e-09},
+    },
     "reorient_fault_campaign": {
         "fault_isolated_correctly": {"min": 1},
         "fault_isolation_delay_s": {"max": 1.0},

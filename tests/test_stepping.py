@@ -78,7 +78,7 @@ def test_a_command_given_for_a_step_replaces_that_slot_and_is_checked():
         bad.step({"law": {"torque": np.zeros(2)}})
     with pytest.raises(testbed.InputError, match=r"command\.law.*not finite"):
         bad.step({"law": {"torque": [np.nan, 0, 0]}})
-    with pytest.raises(testbed.InputError, match=r"command\.allocator.*one of \['body_torque', 'gimbal_rates'\]"):
+    with pytest.raises(testbed.InputError, match=r"command\.allocator.*one of \[[^]]*'gimbal_rates'"):
         bad.step({"allocator": {"rates": np.zeros(4)}})
     with pytest.raises(testbed.InputError, match="unknown slot 'steering'"):
         bad.step({"steering": {}})
