@@ -170,7 +170,7 @@ UNIT_SUFFIXES = {
     "_deg_s2": "deg/s^2", "_deg_s": "deg/s", "_deg": "deg", "_rad_s3": "rad/s^3", "_rad_s2": "rad/s^2",
     "_rad_s": "rad/s", "_rad": "rad", "_nms_rad": "N m s/rad", "_nm_rad": "N m/rad", "_nms": "N m s",
     "_nm": "N m", "_kg_m2": "kg m^2", "_kg": "kg", "_per_s": "1/s", "_1_s": "1/s", "_hz": "Hz",
-    "_rpm": "rpm", "_m": "m", "_s": "s",
+    "_rpm": "rpm", "_m": "m", "_s": "s", "_km": "km", "_am2": "A m^2", "_t": "T", "_sfu": "sfu",
 }
 
 
@@ -213,6 +213,12 @@ def describe(cls, path: str = "") -> list[dict]:
             continue
         tp = hints[f.name]
         fpath = join(path, f.name)
+        optional = [a for a in get_args(tp) if a is not type(None)] if get_origin(tp) in (typing.Union, types.UnionType) else []
+        if len(optional) == 1 and dataclasses.is_dataclass(optional[0]):  # an optional block: its fields
+            rows.append({"key": fpath, "type": "mapping | None", "unit": "", "default": "None", "bounds": "",
+                         "meaning": f.metadata.get("doc", "")})
+            rows.extend(describe(optional[0], fpath))
+            continue
         if dataclasses.is_dataclass(tp):
             rows.extend(describe(tp, fpath))
             continue
