@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+import mujoco
 import numpy as np
 
 from testbed.errors import InputError
@@ -42,24 +43,30 @@ class PointingParams:
 
 
 class HeldAttitude:
-    """Λ*(t), ω*(t), ω*'(t) of an attitude q_offset held in a frame that turns with
-    `frame(t) -> (q_frame, ω_frame, ω_frame')` (frame axes)."""
+    """Λ*(t), ω*(t), ω*'(t) of an attitude q_offset held in a frame that turns about its own y axis
+    with `frame(t) -> (q_frame, ω_frame, ω_frame')` (frame axes; LVLH turns about y), or in ECI."""
 
     def __init__(self, offset, frame=None):
         self.offset = np.asarray(offset, float)
         self.frame = frame
-        self.back = quat_conj(self.offset)
+        self.y_in_body = quat_rotate(quat_conj(self.offset), np.array([0.0, 1.0, 0.0]))  # R(q_offset)^T e_y
+        self._last = (None, None)
 
     def state(self, t):
         if self.frame is None:
             return self.offset, np.zeros(3), np.zeros(3)
+        if self._last[0] == t:  # the law and its record ask for one instant twice
+            return self._last[1]
         q_frame, rate, acceleration = self.frame(t)
-        w, dw = quat_rotate(self.back, np.stack([rate, acceleration]))
-        return quat_mul(q_frame, self.offset), w, dw
+        target = np.empty(4)
+        mujoco.mju_mulQuat(target, q_frame, self.offset)
+        state = target, rate[1] * self.y_in_body, acceleration[1] * self.y_in_body
+        self._last = (t, state)
+        return state
 
 
 def lvlh_frame(orbit):
-    """frame(t) of the LVLH axes along `orbit` (an testbed.orbit.propagation.Orbit)."""
+    """frame(t) of the LVLH axes along `orbit` (a testbed.orbit.propagation.Orbit)."""
 
     def frame(t):
         r, v = orbit.state(t)

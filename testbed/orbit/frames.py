@@ -5,17 +5,21 @@ axes (docs/theory/environment.md, "Frames")."""
 
 from __future__ import annotations
 
+import math
+
 import mujoco
 import numpy as np
+
+from testbed.math.cross import cross3
 
 
 def lvlh_matrix(r, v) -> np.ndarray:
     """Columns: the LVLH axes x, y, z in ECI (the matrix maps LVLH components to ECI)."""
     r = np.asarray(r, float)
-    h = np.cross(r, v)
-    z = -r / np.linalg.norm(r)
-    y = -h / np.linalg.norm(h)
-    return np.column_stack([np.cross(y, z), y, z])
+    h = cross3(r, v)
+    z = -r / math.sqrt(r @ r)
+    y = -h / math.sqrt(h @ h)
+    return np.column_stack([cross3(y, z), y, z])
 
 
 def lvlh_quat(r, v) -> np.ndarray:
@@ -30,5 +34,6 @@ def lvlh_rate(r, v) -> tuple[np.ndarray, np.ndarray]:
     and with |h| held (two-body) its derivative (0, 2 |h| (r . v) / r^4, 0)."""
     r = np.asarray(r, float)
     r2 = float(r @ r)
-    h = float(np.linalg.norm(np.cross(r, v)))
+    h_vector = cross3(r, v)
+    h = math.sqrt(h_vector @ h_vector)
     return np.array([0.0, -h / r2, 0.0]), np.array([0.0, 2.0 * h * float(r @ v) / (r2 * r2), 0.0])

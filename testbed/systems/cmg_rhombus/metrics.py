@@ -56,3 +56,45 @@ def gimbal_rate_error_rel(run) -> float:
         raise ValueError("no gimbal rates recorded after 0.1 s")
     scale = np.maximum(command_peak, 1e-12)
     return float(np.nanmax(error_peak / scale))
+
+
+def _in_orbit(scenario) -> bool:
+    return scenario.system == "cmg_rhombus" and scenario.orbit is not None
+
+
+@dataclass(frozen=True)
+class _EnvelopeShare:
+    """As the run goes: the peak of truth/envelope_share and the first time it reaches 0.9."""
+
+    def start(self):
+        return None, float("inf")
+
+    def update(self, state, chunk):
+        if "truth/envelope_share" not in chunk or len(chunk.time) == 0:
+            return state
+        share = chunk["truth/envelope_share"][:, 0]
+        peak, reached = state
+        peak = _nanmax(peak, share[:, None])
+        full = np.nonzero(share >= 0.9)[0]
+        if full.size and reached == float("inf"):
+            reached = float(chunk.time[full[0]])
+        return peak, reached
+
+    def result(self, state):
+        return state
+
+
+ENVELOPE_SHARE = _EnvelopeShare()
+
+
+@metric("peak_envelope_share", applies=_in_orbit, uses=(ENVELOPE_SHARE,))
+def peak_envelope_share(run) -> float:
+    """max_t of the cluster momentum's share of its envelope (the gauge; 1 on the envelope)."""
+    peak = run.reduced(ENVELOPE_SHARE)[0]
+    return float("nan") if peak is None else float(peak[0])
+
+
+@metric("envelope_90_time_s", applies=_in_orbit, uses=(ENVELOPE_SHARE,))
+def envelope_90_time_s(run) -> float:
+    """first time the cluster momentum reaches 90 % of its envelope [s] (inf: never)."""
+    return run.reduced(ENVELOPE_SHARE)[1]

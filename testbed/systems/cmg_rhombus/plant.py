@@ -191,10 +191,15 @@ class CmgPlant(Plant):
     def derived_signals(self, recorder) -> dict[str, np.ndarray]:
         """Cluster spin momentum H(beta, Omega), body axes (SEEDS §004 eq. 15), and the singularity
         measure sqrt(det(J J^T)) of the true gimbal angles, from the recorded histories, computed
-        after the run in one vectorised pass."""
+        after the run in one vectorised pass; in orbit also the share of the momentum envelope H
+        takes (`envelope_share`: the gauge max_u u.H / S(u), 1 on the envelope; momentum_gauge.py)."""
         beta = recorder["truth/gimbal_angle"]
-        return {"truth/cmg_momentum": self.geometry.momentum(beta, recorder["truth/rotor_rate"]),
-                "truth/singularity_measure": self.geometry.singularity_measure(beta)[:, None]}
+        momentum = self.geometry.momentum(beta, recorder["truth/rotor_rate"])
+        signals = {"truth/cmg_momentum": momentum,
+                   "truth/singularity_measure": self.geometry.singularity_measure(beta)[:, None]}
+        if self.surroundings is not None and len(momentum):  # in orbit: how full the cluster is
+            signals["truth/envelope_share"] = self.geometry.momentum_gauge(momentum)[0][:, None]
+        return signals
 
     def actuator_state(self) -> dict[str, np.ndarray]:
         """What the gimbal encoders and the gimbal and rotor tachometers report."""
