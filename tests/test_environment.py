@@ -149,3 +149,13 @@ def test_desaturation_slows_the_cluster_momentum_growth(managed, unmanaged):
     assert np.linalg.norm(h_off[-1]) > 0.3
     assert growth_on < 0.5 * growth_off
     assert unmanaged.metrics["peak_dipole_use"] == 0.0
+
+
+def test_nrlmsis_and_the_exponential_table_agree_on_the_order_of_the_density():
+    """NRLMSIS 2.1 at 400 km, F10.7 = 150, Ap = 15 against Vallado's table (a mean
+    atmosphere): the same order, within a factor 2 (the solar-cycle spread is a factor ~10)."""
+    from testbed.environment.atmosphere import MsisDensity
+
+    msis = MsisDensity(150.0, 15.0)
+    density = msis(np.datetime64("2026-06-01T00:00"), 10.0, 20.0, 400.0)
+    assert 0.5 < density / exponential_density(400.0) < 2.0

@@ -9,6 +9,14 @@ from typing import Literal
 from testbed.errors import InputError
 from testbed.scenario.schema import join, param
 
+# What each part records (testbed.environment.surroundings), as `testbed describe block` lists it.
+ENVIRONMENT_SIGNALS = (
+    "truth/torque_gravity_gradient, truth/torque_drag, truth/torque_solar_pressure, truth/torque_residual_dipole, "
+    "truth/torque_magnetorquer (body axes, N m)", "truth/eclipse (1 in the shadow)",
+    "truth/sun_direction (unit, body axes)", "truth/magnetic_field (body axes, T)",
+    "truth/magnetometer (body axes, T)", "truth/magnetorquer_dipole (body axes, A m^2)",
+    "truth/envelope_share (a CMG cluster's momentum over its envelope)")
+
 
 @dataclass(kw_only=True)
 class DragParams:

@@ -20,6 +20,9 @@ from testbed.orbit.propagation import GravityIntegrator, Orbit, Sgp4Source
 from testbed.scenario.schema import join, param
 
 ORBIT_PATH = "orbit"
+# What a run in orbit records (testbed.environment.surroundings), as `testbed describe block` lists it.
+ORBIT_SIGNALS = ("truth/orbit_position (ECI, m)", "truth/orbit_velocity (ECI, m/s)",
+                 "truth/quat_lvlh (body to LVLH, w >= 0)", "truth/torque_environment (sum, body axes, N m)")
 
 
 @dataclass(kw_only=True)

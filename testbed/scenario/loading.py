@@ -38,8 +38,8 @@ from testbed.scenario.yaml_reading import read_yaml, yaml_load
 from testbed.scenario.schema import param
 from testbed.scenario.shipped_files import SCENARIO_DIR
 from testbed.campaign.spec import load_spec
-from testbed.environment.config import EnvironmentParams
-from testbed.orbit.config import OrbitParams
+from testbed.environment.config import ENVIRONMENT_SIGNALS, EnvironmentParams
+from testbed.orbit.config import ORBIT_SIGNALS, OrbitParams
 
 
 
@@ -197,6 +197,10 @@ def parse(data: dict, source: str = "") -> Scenario:
     metrics.validate_checks(scenario, raw.checks)
     scenario.checks = {name: schema.load(CheckLimit, limits, f"checks.{name}") for name, limits in raw.checks.items()}
     return scenario
+
+
+# Scenario blocks `testbed describe block` lists: their schema and the trace signals they add.
+SCENARIO_BLOCKS = {"orbit": (OrbitParams, ORBIT_SIGNALS), "environment": (EnvironmentParams, ENVIRONMENT_SIGNALS)}
 
 
 def _orbit_blocks(raw: _RawScenario, system_name: str) -> tuple:
