@@ -51,3 +51,4 @@ def test_a_scenario_that_can_fly_passes_the_check(tmp_path, capfd):
     path.write_text(yaml.safe_dump(_with(environment={"drag": {}, "solar_pressure": {},
                                                       "magnetic_field": {}, "magnetorquers": {}})))
     assert main(["check", str(path)]) == 0
+
