@@ -67,7 +67,7 @@ class _EnvelopeShare:
     """As the run goes: the peak of truth/envelope_share and the first time it reaches 0.9."""
 
     def start(self):
-        return None, float("inf")
+        return None, float("nan")
 
     def update(self, state, chunk):
         if "truth/envelope_share" not in chunk or len(chunk.time) == 0:
@@ -76,7 +76,7 @@ class _EnvelopeShare:
         peak, reached = state
         peak = _nanmax(peak, share[:, None])
         full = np.nonzero(share >= 0.9)[0]
-        if full.size and reached == float("inf"):
+        if full.size and np.isnan(reached):
             reached = float(chunk.time[full[0]])
         return peak, reached
 
@@ -96,5 +96,5 @@ def peak_envelope_share(run) -> float:
 
 @metric("envelope_90_time_s", applies=_in_orbit, uses=(ENVELOPE_SHARE,))
 def envelope_90_time_s(run) -> float:
-    """first time the cluster momentum reaches 90 % of its envelope [s] (inf: never)."""
+    """first time the cluster momentum reaches 90 % of its envelope [s] (NaN: not within the run)."""
     return run.reduced(ENVELOPE_SHARE)[1]
