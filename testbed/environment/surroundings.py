@@ -24,6 +24,7 @@ from testbed.orbit.config import initial_in_eci
 from testbed.orbit.constants import AU_M, EARTH_RADIUS_M, EARTH_RATE_RAD_S, SOLAR_PRESSURE_1AU_N_M2
 from testbed.orbit.frames import lvlh_quat
 from testbed.orbit.sun import in_cylindrical_shadow, sun_position
+from testbed.plant import SimulationDiverged
 from testbed.scenario.schema import whole_multiple
 
 ZERO3 = np.zeros(3)
@@ -87,7 +88,10 @@ class Surroundings:
         if t < self.next_time - 1e-9 * self.period:
             return
         self.next_time = (round(t / self.period) + 1) * self.period
-        self._update(t, plant)
+        try:
+            self._update(t, plant)
+        except ValueError as exc:  # SGP4 gave up on the orbit (it decayed): the run ends there
+            raise SimulationDiverged(t, f"the orbit cannot be propagated: {exc}") from None
 
     def _update(self, t: float, plant) -> None:
         p = self.params

@@ -41,7 +41,7 @@ class OrbitParams:
     epoch_utc: str = param("2026-03-20T12:00:00", doc="UTC date and time of t = 0 (ISO 8601; a TLE's own epoch "
                            "when a TLE is given and this is left out)")
     j2: bool = param(True, doc="include the Earth's J2 in the propagation of elements")
-    step_s: float = param(10.0, gt=0, le=600, doc="orbit integration step; states between are interpolated")
+    step_s: float = param(10.0, ge=0.1, le=600, doc="orbit integration step; states between are interpolated")
     attitude_frame: Literal["eci", "lvlh"] = param("eci", doc="frame of initial.quat and initial.omega_*: "
                                                     "eci (inertial), or lvlh (relative to the orbit frame)")
 
