@@ -26,6 +26,7 @@ bench: .venv/.installed
 	$(PY) bench/bench_pipeline.py
 	$(PY) bench/bench_minimax.py
 	$(PY) bench/bench_sweep.py
+	$(PY) bench/bench_stepping.py
 
 .venv/.installed: pyproject.toml requirements.lock
 	python3 -m venv .venv

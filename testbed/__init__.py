@@ -8,19 +8,43 @@ The public API (docs/api.md, "Python API"):
   state the four slots' interfaces; `StageContext` is what a stage may know when built.
 - `system`, `metric`, `reference`: the other registries (a metric gets the run's `RunData`); `param`: a schema field with its
   bounds; `Plant`: the base of a system's plant; `InputError`: bad input, naming the field.
+- `Simulation(scenario)`: a run stepped a control period at a time (`reset(seed)`, `step()`,
+  `close()`; docs/stepping.md); `run(scenario, stages={"law": obj})` takes Python objects as
+  stages. The Gymnasium environments are in `testbed.gym` (import it to register them).
+
+Each name is imported when first used (PEP 562), so that `import testbed.cli` is quick and a
+Ctrl-C while MuJoCo, SciPy and Dask load reaches the command line's own handling.
 """
 
-from testbed.api import load, read, run
-from testbed.errors import InputError
-from testbed.metrics import metric
-from testbed.pipeline import Allocator, Estimator, Law, Sensor, StageContext, StageInfo, stage
-from testbed.plant import Plant
-from testbed.references.registry import reference
-from testbed.runner import RunData, RunResult
-from testbed.scenario.schema import param
-from testbed.systems.registry import system
+import importlib
 
 __version__ = "0.1.0"
 
-__all__ = ["Allocator", "Estimator", "InputError", "Law", "Plant", "RunData", "RunResult", "Sensor", "StageContext",
-           "StageInfo", "load", "metric", "param", "read", "reference", "run", "stage", "system"]
+_SOURCES = {
+    "load": "testbed.api", "read": "testbed.api", "run": "testbed.api",
+    "InputError": "testbed.errors",
+    "metric": "testbed.metrics",
+    "Allocator": "testbed.pipeline", "Estimator": "testbed.pipeline", "Law": "testbed.pipeline",
+    "Sensor": "testbed.pipeline", "StageContext": "testbed.pipeline", "StageInfo": "testbed.pipeline",
+    "stage": "testbed.pipeline",
+    "Plant": "testbed.plant",
+    "reference": "testbed.references.registry",
+    "RunData": "testbed.runner", "RunResult": "testbed.runner",
+    "param": "testbed.scenario.schema",
+    "Simulation": "testbed.stepping.simulation",
+    "system": "testbed.systems.registry",
+}
+
+__all__ = sorted(_SOURCES)
+
+
+def __getattr__(name: str):
+    if name not in _SOURCES:
+        raise AttributeError(f"module 'testbed' has no attribute {name!r}")
+    value = getattr(importlib.import_module(_SOURCES[name]), name)
+    globals()[name] = value  # once: later lookups do not come here
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_SOURCES))

@@ -5,7 +5,9 @@ what their slot is given, so nothing downstream of the sensor can read the true 
 
 - sensor     `measure(t, plant) -> dict`                 (the only stage that sees truth)
 - estimator  `estimate(t, measurement, command) -> dict`  (`command`: last allocator output)
-- law        `torque(t, estimate) -> dict`                (key `torque`: wanted body torque)
+- law        `torque(t, estimate) -> dict`                (key `torque`: wanted body torque; a law
+             whose class attribute `inputs` lists "internal_momentum" also gets that key:
+             testbed.attitude_laws.momentum_input)
 - allocator  `allocate(t, demand, estimate, actuators) -> dict`
              (key `gimbal_rates` or `body_torque`: what the plant's actuators receive)
 
@@ -270,15 +272,32 @@ class Pipeline:
         self.estimate: dict[str, np.ndarray] = {}
         self.demand: dict[str, np.ndarray] = {}
         self.command: dict[str, np.ndarray] = {}
+        self.checks = dict(checks or {})
+        self._wire()
+
+    def _wire(self) -> None:
+        """Which stages the tick calls and checks, from the stages and checks now in place."""
         # open-loop allocators ignore the actuator read-outs: skip reading them
-        self._needs_actuators = getattr(allocator, "needs_actuators", True)
-        self.checks = checks or {}
+        self._needs_actuators = getattr(self.allocator, "needs_actuators", True)
+        # a law that compensates w x H itself reads the internal momentum (testbed.attitude_laws.momentum_input)
+        self._law_reads_momentum = "internal_momentum" in getattr(self.law, "inputs", ())
         self._sensing, self._estimating, self._controlling, self._allocating = (
-            not _returns_nothing(stage_object) for stage_object in (sensor, estimator, law, allocator))
+            not _returns_nothing(stage_object) for stage_object in self.stages().values())
         self._sensor_check, self._estimator_check, self._law_check, self._allocator_check = (
             self.checks.get(slot) for slot in SLOTS)
+        self.__dict__.pop("tick", None)
         if self._allocating and not (self._sensing or self._estimating or self._controlling):
             self.tick = self._allocate  # an open-loop command: the allocator alone
+
+    def set_stage(self, slot: str, stage_object, check: "OutputCheck | None") -> None:
+        """Put `stage_object` in `slot`, its output checked by `check` at every tick (None: not
+        checked), in place of the stage there (testbed.stepping: a Python object as a stage, or
+        a command given for one step)."""
+        setattr(self, slot, stage_object)
+        self.checks.pop(slot, None)
+        if check is not None:
+            self.checks[slot] = check
+        self._wire()
 
     @classmethod
     def from_config(cls, configs: dict, ctx: StageContext, actuators: dict | None = None) -> "Pipeline":
@@ -312,7 +331,10 @@ class Pipeline:
         slot = "law"
         try:
             if self._controlling:
-                self.demand = self.law.torque(t, self.estimate)
+                given = self.estimate
+                if self._law_reads_momentum:
+                    given = given | {"internal_momentum": plant.internal_momentum_body()}
+                self.demand = self.law.torque(t, given)
                 if self._law_check is not None:
                     self._law_check(t, self.demand)
             slot = "allocator"

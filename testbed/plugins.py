@@ -32,8 +32,10 @@ from testbed.interrupts import from_a_signal
 from testbed.math.validation import existing_file
 from testbed.registry import DuplicateName, restore, snapshot
 
-# the folders that register nothing; every other folder of testbed holds built-in plug-ins
-SHARED_PACKAGES = ("testbed.math", "testbed.campaign", "testbed.recording", "testbed.cli", "testbed.scenario")
+# the folders that register no stage, system, metric or reference (testbed.gym registers Gymnasium
+# environments, once imported); every other folder of testbed holds built-in plug-ins
+SHARED_PACKAGES = ("testbed.math", "testbed.campaign", "testbed.recording", "testbed.cli", "testbed.scenario",
+                   "testbed.stepping", "testbed.gym")
 ENTRY_POINT_GROUP = "testbed.plugins"
 
 _discovered = False

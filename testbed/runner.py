@@ -7,6 +7,7 @@ the state at t, hold its command (zero-order hold) for the Tc / dt physics steps
 from __future__ import annotations
 
 import contextlib
+import functools
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,7 +18,6 @@ from threadpoolctl import ThreadpoolController
 
 from testbed import metrics
 from testbed.recording import trace
-from testbed.recording.output_paths import output_path
 from testbed.references import registry as references_registry
 from testbed.systems import registry as systems_registry
 from testbed.environment import surroundings
@@ -27,6 +27,7 @@ from testbed.pipeline import Pipeline, StageContext, StageFailed, params_dict, s
 from testbed.plant import SimulationDiverged
 from testbed.recording.recorder import FLUSH_AFTER_S, Chunk, Recorder, Trace
 from testbed.recording.reductions import Reductions
+from testbed.stepping.given_stages import given_stage, type_of_given
 
 
 _blas_controller: ThreadpoolController | None = None
@@ -103,8 +104,10 @@ class RunResult:
                 "checks": self.checks, "rrd": self.rrd}
 
 
-def prepare(scenario):
+def prepare(scenario, stages: dict | None = None):
     """Build the plant, the pipeline and the reference: every design-time check happens here.
+    `stages`: slot -> a Python object (or function) that takes that slot's place in the
+    pipeline, checked like a plug-in (`install_stages`).
 
     Parameters so extreme that building from them overflows or breaks a factorisation are bad
     input, named by the part being built (model, pipeline slot, reference)."""
@@ -122,10 +125,22 @@ def prepare(scenario):
     if output is not None and output not in plant.actuators:
         raise InputError("pipeline.allocator.type", f"{scenario.stages['allocator'][0]} commands {output}, "
                          f"which model.system {scenario.system} does not have")
+    if stages:
+        install_stages(pipeline, plant, stages)
     references_registry.check_system(scenario)  # after the stages: a reference describes them
     with np.errstate(all="raise"), refused_as("reference"):
         reference = references_registry.prepare(scenario, plant) if scenario.reference else None
     return plant, pipeline, reference
+
+
+def install_stages(pipeline, plant, stages: dict) -> None:
+    """Put each Python object of `stages` (slot -> object) in its slot of `pipeline`, in place
+    of the configured stage, with a plug-in's output checks (testbed.stepping.given_stages)."""
+    if not isinstance(stages, dict):
+        raise InputError("stages", f"must be a mapping of slot -> object, got {type(stages).__name__}")
+    for slot, stage_object in stages.items():
+        configured = getattr(pipeline.allocator, "output", None) if slot == "allocator" else None
+        pipeline.set_stage(slot, *given_stage(slot, stage_object, plant.actuators, configured))
 
 
 def stage_context(scenario, inertia, description=None, actuators=None, internal_momentum=None) -> StageContext:
@@ -144,121 +159,192 @@ def stage_context(scenario, inertia, description=None, actuators=None, internal_
 
 
 def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = False,
-                 live=None, on_prepared=None) -> RunResult:
-    """Run `scenario`, stream the trace to `out` (None: no file) and evaluate its checks;
+                 live=None, on_prepared=None, prepared=None, stages=None) -> RunResult:
+    """Run `scenario`, stream the trace to `out` (None: no file; a path `output_path` checked,
+    as `testbed.run` does) and evaluate its checks; `prepared`: `prepare(scenario)`'s plant,
+    pipeline and reference, if the caller built them to check the scenario first;
     `keep_data` keeps the whole trace and what the metrics saw in the result (otherwise only the
     signals the metrics need are kept: memory does not grow with the run for metrics that are
     running reductions); `live`: a viewer (testbed.recording.live_view.ViewerStream) the trace is also
     streamed to as it goes, never waited for; the file and the viewer get a chunk at least
     every FLUSH_AFTER_S of wall time; `progress(fraction)` is called about 200 times;
     `on_prepared(plant, pipeline)` sees the built plant and stages before the first step (a
-    campaign reads back what the case runs with). os._exit called by a plug-in's code raises
+    campaign reads back what the case runs with); `stages`: slot -> a Python object that
+    takes the slot's place (`prepare`). os._exit called by a plug-in's code raises
     (testbed.exit_guard), so that a stage that calls it fails the run."""
     with one_blas_thread(), os_exit_raises():
-        return _run(scenario, out, progress, keep_data, live, on_prepared)
+        wall0 = time.perf_counter()
+        with RunInProgress(scenario, out, keep_data, live, prepared, stages, wall0) as run:
+            if on_prepared is not None:
+                on_prepared(run.plant, run.pipeline)
+            run.advance(run.n_ticks, progress)
+            result = run.finish()
+        result.wall_s = time.perf_counter() - wall0
+        return result
 
 
-def _run(scenario, out, progress, keep_data, live, on_prepared) -> RunResult:
-    """`run_scenario`'s body, with one BLAS thread (`one_blas_thread`)."""
-    wall0 = time.perf_counter()
-    out = output_path(out) if out is not None else None  # refused before the run, not after
-    plant, pipeline, reference = prepare(scenario)
-    if on_prepared is not None:
-        on_prepared(plant, pipeline)
-    sim = scenario.sim
-    n_ticks = round(sim.duration_s / sim.control_period_s)
-    if sim.samples_per_tick == 1:  # one rate: every stage at the control period
-        loop, steps = _loop, n_ticks
-        trace_every = round(sim.trace_period_s / sim.control_period_s)
-    else:                          # sensor and estimator at their own, shorter period
-        loop, steps = _multirate_loop, n_ticks * sim.samples_per_tick
-        trace_every = round(sim.trace_period_s / sim.estimator_period_s)
-    momentum_scale = plant.momentum_scale()
-    keep = None if keep_data else metrics.kept_signals(scenario)
-    if reference is not None and not hasattr(reference, "update") and keep is not None:
-        keep |= set(getattr(reference, "signals", None) or ()) | {"truth/omega"}
-        if getattr(reference, "signals", None) is None:
-            keep = None  # a reference that does not say what it reads sees everything
-    reductions = Reductions(metrics.reductions(scenario))
-    status, error = "ok", None
-    footer = steps // trace_every <= trace.FOOTER_MAX_SAMPLES  # a long run: no footer (recording_to)
-    with (trace.recording_to(out, live=live, footer=footer) if out is not None or live is not None
-          else contextlib.nullcontext()) as rec:
-        writer = trace.TraceWriter(rec, scenario.name, n_ticks * sim.control_period_s, plant.scene(),
-                                   envelope_rows=sim.envelope_rows) if rec else None
-        stream = _ChunkStream(plant, reference, reductions, writer)
+class RunInProgress:
+    """One run between its start and its result: the plant, pipeline and reference
+    (`prepare`), the trace's recorder, chunk stream and `.rrd` writer, and how many control
+    periods have run. `advance(n)` runs the next n control periods (the runner's one loop),
+    `finish()` records the end, computes the metrics and checks and writes the result. It is
+    a context manager: the `.rrd` is renamed into place when the block ends whole, and removed
+    if it ends by an exception (testbed.recording.trace.recording_to). `run_scenario` runs
+    it to the end at once; `testbed.stepping.Simulation` a period at a time."""
+
+    def __init__(self, scenario, out=None, keep_data=False, live=None, prepared=None, stages=None,
+                 wall0=None):
+        self.wall0 = time.perf_counter() if wall0 is None else wall0
+        self.scenario, self.out = scenario, out
+        plant, pipeline, reference = prepared if prepared is not None else prepare(scenario, stages)
+        if prepared is not None and stages:
+            install_stages(pipeline, plant, stages)
+        self.plant, self.pipeline, self.reference = plant, pipeline, reference
+        self.stage_types = {slot: type_of_given(pipeline.stages()[slot]) for slot in stages or {}}
+        sim = scenario.sim
+        self.n_ticks = round(sim.duration_s / sim.control_period_s)
+        self.ticks_done = 0
+        if sim.samples_per_tick == 1:  # one rate: every stage at the control period
+            self._loop, self._per_tick = _loop, 1
+            self._trace_every = round(sim.trace_period_s / sim.control_period_s)
+        else:                          # sensor and estimator at their own, shorter period
+            self._loop, self._per_tick = _multirate_loop, sim.samples_per_tick
+            self._trace_every = round(sim.trace_period_s / sim.estimator_period_s)
+        self.momentum_scale = plant.momentum_scale()
+        keep = None if keep_data else metrics.kept_signals(scenario)
+        if reference is not None and not hasattr(reference, "update") and keep is not None:
+            keep |= set(getattr(reference, "signals", None) or ()) | {"truth/omega"}
+            if getattr(reference, "signals", None) is None:
+                keep = None  # a reference that does not say what it reads sees everything
+        self.keep_data = keep_data
+        self.reductions = Reductions(metrics.reductions(scenario))
+        self.status, self.error = "ok", None
+        steps = self.n_ticks * self._per_tick
+        footer = steps // self._trace_every <= trace.FOOTER_MAX_SAMPLES  # a long run: no footer (recording_to)
+        self._context = contextlib.ExitStack()
+        rec = (self._context.enter_context(trace.recording_to(out, live=live, footer=footer))
+               if out is not None or live is not None else None)
+        try:
+            self.writer = trace.TraceWriter(rec, scenario.name, self.n_ticks * sim.control_period_s, plant.scene(),
+                                            envelope_rows=sim.envelope_rows) if rec else None
+        except BaseException as exc:  # no run: its partial file goes (recording_to)
+            if not self._context.__exit__(type(exc), exc, exc.__traceback__):
+                raise
+        self.stream = _ChunkStream(plant, reference, self.reductions, self.writer)
         # a chunk at least every FLUSH_AFTER_S of wall time: a viewer sees the run move, and a killed
         # slow run loses at most that much of its trace
-        recorder = Recorder(keep=keep, on_chunk=stream, flush_after_s=FLUSH_AFTER_S if rec else None)
-        stream.recorder = recorder
+        self.recorder = Recorder(keep=keep, on_chunk=self.stream, flush_after_s=FLUSH_AFTER_S if rec else None)
+
+    def __enter__(self) -> "RunInProgress":
+        return self
+
+    def __exit__(self, *exc_info) -> bool:
+        return self._context.__exit__(*exc_info)
+
+    @property
+    def running(self) -> bool:
+        """Whether control periods are left to run and the run has neither diverged nor failed."""
+        return self.status == "ok" and self.ticks_done < self.n_ticks
+
+    def advance(self, ticks: int, progress=None) -> None:
+        """Run the next `ticks` control periods (fewer at the end of the run), stopping at a
+        divergence or a stage's failure (`status`, `error`); after the last period, the
+        final truth sample."""
+        if not self.running:
+            return
+        start = self.ticks_done
+        stop = min(start + ticks, self.n_ticks)
+        sim = self.scenario.sim
         try:
             # a stage whose numbers overflow or turn invalid fails at that tick, named (StageFailed),
             # instead of printing numpy warnings and handing NaN on
             with np.errstate(over="raise", invalid="raise", divide="raise"):
-                loop(plant, pipeline, recorder, steps, trace_every, sim, progress)
+                self._loop(self.plant, self.pipeline, self.recorder, start * self._per_tick,
+                           stop * self._per_tick, self._trace_every, sim, progress, self.n_ticks * self._per_tick)
         except SimulationDiverged as exc:
-            status, error = "diverged", str(exc)
+            self.status, self.error = "diverged", str(exc)
         except StageFailed as exc:
-            status, error = "error", str(exc)
+            self.status, self.error = "error", str(exc)
         except FloatingPointError as exc:  # the plant's own read-outs overflowed: the state blew up
-            status, error = "diverged", str(SimulationDiverged(plant.time, f"{exc} in the plant's read-outs"))
+            self.status, self.error = "diverged", str(SimulationDiverged(self.plant.time,
+                                                                         f"{exc} in the plant's read-outs"))
+        if self.status == "ok":
+            self.ticks_done = stop
+            if stop == self.n_ticks:  # the final state, on the trace grid or not
+                self.recorder.sample(sim.end_time_s, {"truth": self.plant.truth()})
+
+    def finish(self) -> RunResult:
+        """The run's result: the trace flushed, the reference finished, the metrics and checks
+        of what ran (the whole run, or the periods run so far), written into the `.rrd`."""
+        scenario, recorder, pipeline = self.scenario, self.recorder, self.pipeline
         recorder.flush()
-        stream.finish()
+        self.stream.finish(recorder)
         data = RunData(scenario, recorder, {slot: stage.statistics for slot, stage in pipeline.stages().items()
                                             if hasattr(stage, "statistics")},
-                       plant.description(), momentum_scale, stream.reference_error, reductions=reductions)
+                       self.plant.description(), self.momentum_scale, self.stream.reference_error,
+                       reductions=self.reductions)
         values, why = metrics.compute_all(data) if recorder.count > 1 else ({}, {})
         checks = metrics.evaluate_checks(scenario, values, why)
-        result = RunResult(scenario.name, recorder.last_time, 0.0, status, error and error_line(error),
-                           values, checks, str(out) if out else None, data if keep_data else None,
-                           Trace.from_recorder(recorder) if keep_data else None)
-        if writer is not None:
-            result.wall_s = time.perf_counter() - wall0
-            writer.finish(result.as_json() | {"stages": {slot: {"type": name, **params_dict(p)}
-                                                         for slot, (name, p) in scenario.stages.items()}})
-    result.wall_s = time.perf_counter() - wall0
-    return result
+        error = self.error
+        result = RunResult(scenario.name, recorder.last_time, 0.0, self.status, error and error_line(error),
+                           values, checks, str(self.out) if self.out else None, data if self.keep_data else None,
+                           Trace.from_recorder(recorder) if self.keep_data else None)
+        if self.writer is not None:
+            result.wall_s = time.perf_counter() - self.wall0
+            stages = {slot: {"type": name, **params_dict(p)} for slot, (name, p) in scenario.stages.items()}
+            stages |= {slot: {"type": name} for slot, name in self.stage_types.items()}
+            self.writer.finish(result.as_json() | {"stages": stages})
+        result.wall_s = time.perf_counter() - self.wall0
+        return result
 
 
 class _ChunkStream:
     """What happens to each chunk of trace samples as the run goes: the plant's derived signals
     are added, the reference advances (`update` of a streaming reference), the metrics'
-    reductions are updated and the chunk is written. A reference that needs the whole run is
-    evaluated by `finish` on the kept history; a reference that fails is left out, its reason
-    kept (`reference_error`) for the metrics that need it."""
+    reductions are updated and the chunk is written; the reference's rows go back to the
+    recorder to keep. A reference that needs the whole run is evaluated by `finish` on the kept
+    history; a reference that fails is left out, its reason kept (`reference_error`) for the
+    metrics that need it."""
 
     def __init__(self, plant, reference, reductions, writer):
         self.plant, self.reference, self.reductions, self.writer = plant, reference, reductions, writer
-        self.recorder = None
         self.reference_error = None
 
-    def __call__(self, chunk) -> None:
+    def __call__(self, chunk) -> list[Chunk]:
         with np.errstate(all="ignore"):  # NaN rows of a run cut short are recorded as they are
             chunk.signals.update(self.plant.derived_signals(chunk))
         self._emit(chunk)
         if self.reference is not None and hasattr(self.reference, "update") and self.reference_error is None:
-            self._reference(lambda: self.reference.update(chunk))
+            return self._reference(lambda: self.reference.update(chunk))
+        return []
 
-    def finish(self) -> None:
+    def finish(self, recorder) -> None:
+        """The reference's last rows (a streaming one's), or all of them (one that needs the whole
+        run, from the recorder's kept history), into `recorder`."""
         if self.reference is None or self.reference_error is not None:
             return
         if hasattr(self.reference, "update"):
-            self._reference(self.reference.finish)
-        elif self.recorder.count > 1:
-            recorder = self.recorder
-            self._reference(lambda: _reference_chunk(recorder.time, self.reference(recorder.time, recorder),
-                                                     recorder["truth/omega"]))
+            rows = self._reference(self.reference.finish)
+        elif recorder.count > 1:
+            rows = self._reference(lambda: _reference_chunk(recorder.time, self.reference(recorder.time, recorder),
+                                                            recorder["truth/omega"]))
+        else:
+            rows = []
+        for chunk in rows:
+            recorder.keep_chunk(chunk)
 
-    def _reference(self, evaluate) -> None:
+    def _reference(self, evaluate) -> list[Chunk]:
+        """The chunk `evaluate()` gives, written ([] if none, or if the reference failed)."""
         try:
             with np.errstate(all="ignore"):
                 chunk = evaluate()
         except (ValueError, ArithmeticError) as exc:  # e.g. too short a trace to interpolate
             self.reference_error = f"the reference could not be evaluated: {exc}"
-            return
-        if chunk is not None:
-            self._emit(chunk)
-            self.recorder.keep_chunk(chunk)
+            return []
+        if chunk is None:
+            return []
+        self._emit(chunk)
+        return [chunk]
 
     def _emit(self, chunk) -> None:
         self.reductions.update(chunk)
@@ -276,20 +362,24 @@ def _reference_chunk(times, omega_ref, omega_truth, first_row: int = 0) -> Chunk
 CHECK_EVERY_TICKS = 10
 
 
-def _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress) -> None:
-    """Tick k: the pipeline at t = k Tc, a trace sample of the stages' outputs and the truth
-    every `trace_every` ticks, then Tc / dt physics steps; the truth alone at the end (always).
+def _loop(plant, pipeline, recorder, start, stop, trace_every, sim, progress, n_ticks) -> None:
+    """Ticks k = start .. stop - 1 of the run's `n_ticks`: the pipeline at t = k Tc, a trace
+    sample of the stages' outputs and the truth every `trace_every` ticks, then Tc / dt physics
+    steps.
 
-    The ticks run in blocks that start at a trace sample (`block_ticks`); the plant is
-    checked for a bad state at the end of each block, and before a stage's failure is
-    reported (a state MuJoCo reset may be what the stage failed on)."""
+    The ticks run in blocks that start at a trace sample (`block_ticks`; a range that starts
+    between two is first run to the next block's start); the plant is checked for a bad state
+    at the end of each block, and before a stage's failure is reported (a state MuJoCo reset
+    may be what the stage failed on)."""
     steps = sim.steps_per_tick
     tc = sim.control_period_s
     block = block_ticks(trace_every, CHECK_EVERY_TICKS)
     report_every = max(1, n_ticks // 200)
-    next_report = 0
+    next_report = start
     tick, advance, check = pipeline.tick, plant.stepper(steps), plant.check_state
-    for first in range(0, n_ticks, block):
+    first = start
+    while first < stop:
+        last = min(first + block - first % block, stop)  # the end of the block `first` is in
         t0 = first * tc
         k = first
         try:
@@ -299,7 +389,7 @@ def _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress) -> Non
                 signals["truth"] = plant.truth()
                 recorder.sample(t0, signals)
             advance()
-            for k in range(first + 1, min(first + block, n_ticks)):
+            for k in range(first + 1, last):
                 tick(k * tc, plant)
                 advance()
         except (StageFailed, FloatingPointError):
@@ -309,27 +399,29 @@ def _loop(plant, pipeline, recorder, n_ticks, trace_every, sim, progress) -> Non
         if progress is not None and first >= next_report:
             progress(first / n_ticks)
             next_report = first + report_every
-    recorder.sample(sim.end_time_s, {"truth": plant.truth()})  # the final state, on the trace grid or not
+        first = last
 
 
+@functools.lru_cache(maxsize=64)  # a stepped run asks at every period
 def block_ticks(trace_every: int, longest: int) -> int:
     """The largest number of ticks <= `longest` that divides `trace_every`: blocks of it
     start at every trace sample."""
     return max(n for n in range(1, min(trace_every, longest) + 1) if trace_every % n == 0)
 
 
-def _multirate_loop(plant, pipeline, recorder, n_samples, trace_every, sim, progress) -> None:
-    """Sample j (t = j Ts, Ts = sim.estimator_period_s): the sensor and the estimator, and at
-    every control instant (each `samples_per_tick`-th sample) the whole pipeline, whose command
-    stays held over the control period; Ts / dt physics steps. A trace sample every
-    `trace_every` samples holds the truth and the stages that ran at it: sensor and estimator at
-    their rate, law and allocator only at control instants (each stage at its own rate)."""
+def _multirate_loop(plant, pipeline, recorder, start, stop, trace_every, sim, progress, n_samples) -> None:
+    """Samples j = start .. stop - 1 of the run's `n_samples` (t = j Ts, Ts =
+    sim.estimator_period_s): the sensor and the estimator, and at every control instant (each
+    `samples_per_tick`-th sample) the whole pipeline, whose command stays held over the control
+    period; Ts / dt physics steps. A trace sample every `trace_every` samples holds the truth
+    and the stages that ran at it: sensor and estimator at their rate, law and allocator only
+    at control instants (each stage at its own rate)."""
     per_tick = sim.samples_per_tick
     steps = sim.steps_per_sample
     ts = sim.estimator_period_s
     report_every = max(1, n_samples // 200)
     tick, sense, step = pipeline.tick, pipeline.sense, plant.step
-    for j in range(n_samples):
+    for j in range(start, stop):
         t = j * ts
         control = j % per_tick == 0
         if control:
@@ -343,4 +435,3 @@ def _multirate_loop(plant, pipeline, recorder, n_samples, trace_every, sim, prog
         step(steps)
         if progress is not None and j % report_every == 0:
             progress(j / n_samples)
-    recorder.sample(sim.end_time_s, {"truth": plant.truth()})  # the final state, on the trace grid or not

@@ -1,6 +1,7 @@
 """The CLI end to end: run, --json, inspect reads back the stored result, failures, divergence."""
 
 import json
+import sys
 
 import numpy as np
 import pytest
@@ -107,3 +108,37 @@ def test_check_prints_a_table_and_fails_on_a_failed_check(tmp_path, capsys):
     assert main(["check", str(scenario), "--out-dir", str(tmp_path)]) == 1
     table = capsys.readouterr().out
     assert "momentum_drift_rel" in table and "FAIL" in table and "pass" in table
+
+
+def test_each_command_builds_each_plant_and_reads_each_file_once(tmp_path, capsys, monkeypatch):
+    """The straight data walk (docs/architecture.md): `check` of two scenarios builds two plants,
+    not four; `run` checks its output path once; `inspect` reads the file in one pass."""
+    import testbed.cli.inspect_trace, testbed.cli.run, testbed.runner  # noqa: F401  (before the patching below)
+    from testbed.recording import output_paths, trace_reader
+    from testbed.systems import registry
+
+    counts = {"plants": 0, "paths": 0, "passes": 0}
+
+    def counting(name, function):
+        def counted(*args, **kwargs):
+            counts[name] += 1
+            return function(*args, **kwargs)
+        return counted
+
+    monkeypatch.setattr(registry, "make_plant", counting("plants", registry.make_plant))
+    original = output_paths.output_path
+    check_path = counting("paths", original)
+    for module in [m for m in list(sys.modules.values()) if m and m.__name__.startswith("testbed")]:
+        if getattr(module, "output_path", None) is original:  # wherever it was imported
+            monkeypatch.setattr(module, "output_path", check_path)
+    monkeypatch.setattr(trace_reader, "_chunks", counting("passes", trace_reader._chunks))
+    short = ["--set", "sim.duration_s=2"]
+    out = tmp_path / "g.rrd"
+    assert main(["run", "gyrostat_free", *short, "--out", str(out)]) == 0
+    assert (counts["plants"], counts["paths"]) == (1, 1)
+    assert main(["inspect", str(out)]) == 0
+    assert counts["passes"] == 1
+    counts.update(plants=0)
+    assert main(["check", "gyrostat_free", "torque_free_tumble", "--out-dir", str(tmp_path)]) in (0, 1)
+    assert counts["plants"] == 2
+    capsys.readouterr()

@@ -9,6 +9,7 @@ import json
 import re
 import subprocess
 import sys
+import typing
 from pathlib import Path
 
 import pytest
@@ -39,14 +40,24 @@ def test_the_parameters_page_does_not_depend_on_what_was_imported_first():
     assert done.returncode == 0, done.stderr
     assert done.stdout == DOCS_PAGE.read_text()
 
+def _keys(params_cls, path=""):
+    """Every field of a schema, a nested schema's fields as dotted keys (schema.describe)."""
+    hints = typing.get_type_hints(params_cls)
+    keys = []
+    for f in dataclasses.fields(params_cls):
+        if f.init:
+            nested = dataclasses.is_dataclass(hints[f.name])
+            keys += _keys(hints[f.name], f"{path}{f.name}.") if nested else [path + f.name]
+    return keys
+
+
 def test_describe_stage_lists_every_registered_stage_with_every_field_of_its_schema(capsys):
     discover()
     assert main(["describe", "stage", "--json"]) == 0
     listed = {(e["slot"], e["name"]): e for e in json.loads(capsys.readouterr().out)}
     for slot in pipeline.SLOTS:
         for name, (params_cls, _) in pipeline.STAGES[slot].items():
-            fields = [f.name for f in dataclasses.fields(params_cls) if f.init]
-            assert [row["key"] for row in listed.pop((slot, name))["parameters"]] == fields, (slot, name)
+            assert [row["key"] for row in listed.pop((slot, name))["parameters"]] == _keys(params_cls), (slot, name)
     assert not listed
 
 

@@ -324,3 +324,27 @@ def test_inspect_reads_the_partial_trace_of_a_process_that_died(cli, tmp_path, h
     garbage.write_bytes(b"RRF2" + bytes(range(256)) * 16)
     code, out, err = cli("inspect", garbage)
     assert code == 2 and err.count("\n") == 1 and err.startswith("error: rrd: "), err
+
+
+def test_a_trace_whose_end_rerun_could_not_write_is_no_finished_trace(cli, tmp_path, monkeypatch):
+    """Rerun writes a file's end (its footer) on its own thread as the stream disconnects and says
+    nothing when that write fails: a file whose end is cut short (here its last 40 bytes, inside
+    the footer message, as a disk that filled mid-write leaves it; Rerun then refuses to read the
+    file) is an error naming the file, exit 1, and no .rrd or .partial is left."""
+    import rerun as rr
+
+    written = []
+    original = rr.RecordingStream.disconnect
+
+    def cut_short(self):
+        original(self)
+        for partial in tmp_path.glob("*.partial"):
+            os.truncate(partial, partial.stat().st_size - 40)
+            written.append(partial)
+
+    monkeypatch.setattr(rr.RecordingStream, "disconnect", cut_short)
+    code, out, err = cli("run", "gyrostat_free", "--set", "sim.duration_s=2", "--out", str(tmp_path / "cut.rrd"))
+    assert written and code == 1, err
+    lines = err.splitlines()
+    assert len(lines) == 1 and "cut.rrd" in lines[0] and "cut short" in lines[0], lines
+    assert sorted(p.name for p in tmp_path.iterdir()) == []

@@ -1105,6 +1105,44 @@ def _marked_scenario(folder: Path, name: str, duration_s: float) -> Path:
     return write_yaml(folder, name, data)
 
 
+# `python -m testbed list`, with an import hook that marks when NumPy starts loading and holds
+# it there 5 s: a signal then lands in the command's imports, whatever the machine's speed.
+SLOW_IMPORT = """\
+import pathlib, runpy, sys, time
+marker = pathlib.Path(sys.argv[1])
+class Hold:
+    def find_spec(self, name, path=None, target=None):
+        if name == "numpy":
+            sys.meta_path.remove(self)
+            marker.touch()
+            time.sleep(5)
+        return None
+sys.meta_path.insert(0, Hold())
+sys.argv = ["testbed", "list"]
+runpy.run_module("testbed", run_name="__main__")
+"""
+
+
+@pytest.mark.parametrize("sig, expected", SIGNALS, ids=["SIGINT", "SIGTERM"])
+def test_signal_while_the_command_imports(tmp_path, sig, expected):
+    """Ctrl-C while NumPy (then MuJoCo, SciPy, Dask) loads: one line and 130, no traceback (before: a
+    KeyboardInterrupt traceback from inside the imports); SIGTERM ends it by its default action
+    (the shell's 143)."""
+    marker = tmp_path / "importing"
+    proc = subprocess.Popen([sys.executable, "-c", SLOW_IMPORT, str(marker)], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t0 = time.monotonic()
+    while not marker.exists() and proc.poll() is None and time.monotonic() - t0 < 30:
+        time.sleep(0.01)
+    assert marker.exists(), proc.communicate(timeout=60)
+    proc.send_signal(sig)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert "Traceback" not in stderr, stderr
+    assert proc.returncode in (expected, -sig), (proc.returncode, stderr)
+    if sig == signal.SIGINT:
+        assert (proc.returncode, stderr) == (130, "interrupted\n")
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("scenario", ["cmg_open_loop", "reorient_minimax"])
 @pytest.mark.parametrize("sig, expected", SIGNALS, ids=["SIGINT", "SIGTERM"])
@@ -1332,7 +1370,7 @@ def test_a_signal_ignored_at_start_stays_ignored():
 @pytest.mark.slow
 def test_two_concurrent_runs_to_one_out_leave_a_whole_trace(tmp_path):
     out = tmp_path / "X.rrd"
-    argv = ["run", "cmg_open_loop", "--out", out, "--set", "sim.duration_s=150"]  # about 2 s each
+    argv = ["run", "cmg_open_loop", "--out", out, "--set", "sim.duration_s=60"]  # under a second each, quiet
     procs = [_start(argv, tmp_path) for _ in range(2)]
     results = [proc.communicate(timeout=120) for proc in procs]
     for proc, (stdout, stderr) in zip(procs, results):

@@ -118,7 +118,7 @@ def code_without_docs(path: Path) -> str:
 # Shared machinery: the top level and the folders every system and method runs on. The method
 # folders (lebedev/, steering/, guidance/, stages/) and systems/ may name the systems they serve;
 # the registries and the free bus that sit in systems/ and references/ may not.
-SHARED_FOLDERS = ("math", "campaign", "recording", "cli", "scenario")
+SHARED_FOLDERS = ("math", "campaign", "recording", "cli", "scenario", "stepping")
 CORE = (sorted(PACKAGE.glob("*.py")) + [p for f in SHARED_FOLDERS for p in sorted((PACKAGE / f).glob("*.py"))]
         + [PACKAGE / "systems" / "registry.py", PACKAGE / "systems" / "free_bus.py", PACKAGE / "references" / "registry.py"])
 

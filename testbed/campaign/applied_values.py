@@ -85,12 +85,16 @@ def leaf_paths(values: dict, prefix: str = "") -> list[str]:
 
 
 def leaf_value(values: dict, path: str):
-    """The value at leaf `path` of `leaf_paths(values)`."""
+    """The value at leaf `path` of `leaf_paths(values)` (a field swept itself, or a key of a swept
+    mapping above it: `model.faults.0.at_s` drawn into a drawn `model.faults.0`)."""
+    if path in values:
+        return values[path]
     for key, value in values.items():
-        if path == key:
-            return value
         if isinstance(value, dict) and path.startswith(key + "."):
-            return leaf_value(value, path[len(key) + 1:])
+            try:
+                return leaf_value(value, path[len(key) + 1:])
+            except KeyError:
+                continue
     raise KeyError(path)
 
 

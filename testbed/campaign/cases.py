@@ -21,7 +21,7 @@ from testbed.campaign.dispersions import angle_deg
 from testbed.errors import InputError, quoted
 from testbed.campaign.applied_values import NotApplied
 from testbed.scenario.loading import field_value, parse, set_field
-from testbed.campaign.spec import case_draws, load_spec
+from testbed.campaign.spec import CaseDraw, case_draws, load_spec
 
 MAX_REFUSED_SHARE = 0.01   # of a dispersed field's draws over the campaign
 MAX_REDRAWS = 100          # of one field in one case
@@ -65,6 +65,20 @@ def expand(data: dict, source: str = "", check: Callable | None = None, indices=
             if dist.kind == "misalignment_deg":
                 case.derived[f"{key}:misalignment_deg"] = angle_deg(case.values[key], nominal(key))
     return cases
+
+
+def seeded_scenario(data: dict, source: str, seed: int):
+    """The validated scenario of raw `data` whose dispersions draw from case seed `seed` (each
+    field from its own generator, testbed.campaign.spec.field_generator, a refused draw drawn
+    again as in a campaign); the grid and the `random:` fields keep the base scenario's values,
+    and a scenario without a sweep block is itself."""
+    if data.get("sweep") is None:
+        return parse(copy.deepcopy(data), source)
+    spec = load_spec(data["sweep"])
+    base = {k: v for k, v in data.items() if k != "sweep"}
+    tally = {key: {"draws": 0, "refused": 0, "reason": ""} for key in spec.dispersions}
+    draw = CaseDraw(spec, 0, {}, {}, _nominal(base, source), seed=seed)
+    return _validated(draw, base, source, spec, lambda scenario, values: scenario, tally).prepared
 
 
 def _validated(draw, base: dict, source: str, spec, check, tally) -> Case:

@@ -68,12 +68,11 @@ def quiet_closed_comms() -> None:
 
 
 def start_local(workers: int):
-    """(cluster, client) of a local cluster of `workers` processes (dask's config as it is set:
-    the caller's LOCAL_CONFIG, for the cluster's whole life)."""
+    """(cluster, client) of a local cluster of `workers` processes (already `checked_workers`;
+    dask's config as it is set: the caller's LOCAL_CONFIG, for the cluster's whole life)."""
     from distributed import Client, LocalCluster
 
     quiet_closed_comms()
-    checked_workers(workers)
     cluster = client = None
     try:
         with signals_held():  # a signal held meanwhile is raised at its end: the cluster is closed below

@@ -81,7 +81,7 @@ def run_case(case: Case, rrd: str | None = None) -> dict:
 
 
 def died_row(case: Case, reason: str) -> dict:
-    """The row of a case that gave no result (testbed.campaign.engine.CaseLost: its worker died, or it ran too long)."""
+    """The row of a case that gave no result (testbed.campaign.dispatch.CaseLost: its worker died, or it ran too long)."""
     return case_row(case, {}, "error", False, reason)
 
 
@@ -94,7 +94,8 @@ def run_cases(cases: list[Case], workers: int | None = None, rrd_dir: Path | Non
     scheduler at `scheduler`; `on_row(row)` and `progress(done, total, failed)` after each case,
     as it finishes. A case may run `case_timeout_s`, else the bound its build gave
     (prepared["timeout_s"], testbed.campaign.case_timeout), else without a bound."""
-    from testbed.campaign.engine import CaseLost, Engine
+    from testbed.campaign.dispatch import CaseLost
+    from testbed.campaign.engine import Engine
 
     if engine is None:
         with Engine(workers, scheduler) as started:

@@ -130,9 +130,11 @@ class CaseDraw:
     dispersions, each field drawing from its own generator; `redraw(key)` takes that field's
     next draw (testbed.campaign.cases does, for a draw the field refuses)."""
 
-    def __init__(self, spec: SweepSpec, index: int, point: dict, streamed: dict, nominal: Callable[[str], Any]):
+    def __init__(self, spec: SweepSpec, index: int, point: dict, streamed: dict, nominal: Callable[[str], Any],
+                 seed: int | None = None):
         self.spec, self.index, self.nominal = spec, index, nominal
-        self.seed = case_seed(spec.seed, index % (spec.samples or 1))  # the same for sample j at every grid point
+        # the same for sample j at every grid point; `seed`: a case seed given outright (testbed.stepping)
+        self.seed = case_seed(spec.seed, index % (spec.samples or 1)) if seed is None else seed
         self.generators = {key: field_generator(self.seed, key) for key in spec.dispersions}
         self.values = point | {key: self._draw(key) for key in spec.dispersions} | streamed
 

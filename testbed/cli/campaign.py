@@ -23,16 +23,14 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
 import sys
 from pathlib import Path
 
-from testbed.cli.commands import command, reported
+from testbed.cli.commands import EXIT_FAILED, EXIT_OK, command, reported
 from testbed.errors import InputError, WriteFailed
 from testbed.cli.json_stdout import reserved_for_json
 from testbed.cli.progress import advance_to, progress_bar
 
-EXIT_OK, EXIT_FAILED = 0, 1
 
 
 @command("sweep")
@@ -107,28 +105,23 @@ def output_folder(args, name: str) -> Path:
 
 
 def run(args) -> int:
-    from testbed.campaign.cluster import checked_workers
     from testbed.campaign.case_timeout import checked_case_timeout
-
-    case_timeout = checked_case_timeout(args.case_timeout) if args.case_timeout is not None else None
-    if args.scheduler is not None and args.workers is not None:
-        raise InputError("--workers", "sizes the local cluster; with --scheduler the cluster's own workers run the cases")
-    workers = checked_workers(args.workers) if args.workers is not None else None
-    if args.case is not None:
-        return _rerun_case(args)
     from testbed.campaign.engine import Engine
 
+    case_timeout = checked_case_timeout(args.case_timeout) if args.case_timeout is not None else None
+    engine = Engine(args.workers, args.scheduler)  # checks --workers; started below
+    if args.case is not None:
+        return _rerun_case(args)
     # a plug-in's prints go to stderr, the workers' too (they inherit it as their stdout)
     with reserved_for_json(args.json):
         name, data, cases = load_cases(args.scenario, args.set)
         out = output_folder(args, name)
         table, done = open_table(out, name, data, cases, args)  # refuses a damaged folder; writes nothing
-        clamped = workers is not None and workers > len(cases)
-        with Engine(min(workers or os.cpu_count() or 1, len(cases)),  # an idle worker only costs its start
-                    args.scheduler) as engine:  # an unreachable scheduler is refused before any file is written
+        clamped = engine.at_most(len(cases))
+        with engine:  # an unreachable scheduler is refused before any file is written
             _load_plugins_in_workers(engine, cases)
             if clamped:  # after the start: a refused start is its one line
-                print(f"note: --workers {workers} for {len(cases)} cases: started {len(cases)}", file=sys.stderr)
+                print(f"note: --workers {args.workers} for {len(cases)} cases: started {len(cases)}", file=sys.stderr)
             table.start()
             rows = _run_into(table, done, cases, engine, out if args.rrd else None, args, case_timeout)
         lines = summarise(name, data, rows, cases, out, args)

@@ -16,6 +16,10 @@ from testbed.registry import Registry
 
 COMMANDS = Registry("command")
 
+# A command's exit status (docs/cli.md, "Exit status"): every check passed; a check failed, a run
+# diverged or failed; bad input, nothing run.
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+
 
 def command(name: str):
     def register(add_parser):

@@ -12,7 +12,7 @@ import sys
 import warnings
 
 from testbed.cli import campaign, describe, init, inspect_trace, list_scenarios, run
-from testbed.cli.commands import COMMANDS, stdout_lost
+from testbed.cli.commands import COMMANDS, EXIT_BAD_INPUT, EXIT_FAILED, stdout_lost
 from testbed.interrupts import Terminated, signals_as_exceptions
 from testbed.errors import InputError, WriteFailed, quoted
 from testbed.plugins import discover
@@ -21,7 +21,6 @@ from testbed.plugins import discover
 # own with @command (testbed.cli.commands) when imported, as a system package does.
 BUILT_IN_COMMANDS = (run, list_scenarios, inspect_trace, campaign, describe, init)
 
-EXIT_FAILED, EXIT_BAD_INPUT = 1, 2
 
 
 class _Parser(argparse.ArgumentParser):

@@ -14,11 +14,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from testbed.cli.commands import command, reported
+from testbed.cli.commands import EXIT_OK, command, reported
 from testbed.errors import InputError, quoted
 from testbed.recording.output_paths import check_creatable
 
-EXIT_OK = 0
 SCENARIO_FILE, CONTROLLER_FILE = "my_scenario.yaml", "my_controller.py"
 
 SCENARIO_TEMPLATE = """\

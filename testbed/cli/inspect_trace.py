@@ -6,10 +6,9 @@ import json
 from pathlib import Path
 
 from testbed import api
-from testbed.cli.commands import command, reported
+from testbed.cli.commands import EXIT_FAILED, EXIT_OK, command, reported
 from testbed.cli.run import print_checks
 
-EXIT_OK, EXIT_FAILED = 0, 1
 
 
 @command("inspect")
@@ -21,11 +20,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from testbed.recording.trace_reader import read_rrd
-
-    api.read(args.rrd)  # refuses an empty name, a missing, foreign or damaged file (InputError)
+    info = api.inspect(args.rrd)  # refuses an empty name, a missing, foreign or damaged file (InputError)
     path = Path(args.rrd)
-    info = read_rrd(path)
 
     def report():
         if args.json:

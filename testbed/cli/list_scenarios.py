@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-from testbed.cli.commands import command, reported
+from testbed.cli.commands import EXIT_OK, command, reported
 from testbed.errors import InputError
 
-EXIT_OK = 0
 
 
 @command("list")

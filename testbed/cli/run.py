@@ -8,14 +8,12 @@ import sys
 from pathlib import Path
 
 from testbed import api
-from testbed.cli.commands import command, reported
+from testbed.cli.commands import EXIT_FAILED, EXIT_OK, command, reported
 from testbed.cli.json_stdout import reserved_for_json
 from testbed.cli.progress import advance_to, progress_bar
 from testbed.recording import live_view
-from testbed.recording.output_paths import file_stem, output_path
-from testbed.runner import run_scenario
+from testbed.recording.output_paths import checked_output, file_stem
 
-EXIT_OK, EXIT_FAILED = 0, 1
 
 
 @command("run")
@@ -46,32 +44,34 @@ def add_check_parser(sub) -> None:
 
 def _run_one(name: str, overrides, out: str | None, show_progress: bool, view: bool = False, connect: str | None = None):
     scenario = api.load(name, overrides)
-    out_path = output_path(Path("runs") / f"{file_stem(scenario.name)}.rrd" if out is None else out)
-    live = _live_view(view, connect)
-    result = _run_loaded(scenario, out_path, show_progress, live)
-    if live is not None and not live.complete:
-        print(f"note: the viewer at {live.url} did not take the whole run within {live_view.CLOSE_S:g} s; "
+    live = []  # the viewer stream, once opened (after the scenario and the output path are checked)
+
+    def open_live():
+        live.append(_live_view(view, connect))
+        return live[0]
+
+    out_path = checked_output(Path("runs") / f"{file_stem(scenario.name)}.rrd" if out is None else out)
+    result = _run_loaded(scenario, out_path, show_progress, open_live if view or connect is not None else None)
+    if live and not live[0].complete:
+        print(f"note: the viewer at {live[0].url} did not take the whole run within {live_view.CLOSE_S:g} s; "
               f"the trace file holds it", file=sys.stderr)
     return result
 
 
 def _live_view(view: bool, connect: str | None):
     """The viewer a run is streamed to besides its file (testbed.recording.live_view): one started now
-    (`--view`) or one already running at `connect`, refused before the run when there is none.
-    Called after the scenario is validated."""
-    if not view and connect is None:
-        return None
+    (`--view`) or one already running at `connect`, refused before the run when there is none."""
     url = live_view.start_viewer() if view else live_view.check_reachable(connect)
     return live_view.ViewerStream(url)
 
 
-def _run_loaded(scenario, out_path, show_progress: bool, live=None):
+def _run_loaded(scenario, out, show_progress: bool, live=None, prepared=None):
     duration = scenario.sim.duration_s
     with progress_bar(scenario.name, duration, "sim s") as bar:
         bar.disable = bar.disable or not show_progress
         # the trace is streamed, not kept: the command line needs only the metrics
-        return run_scenario(scenario, out_path, progress=lambda fraction: advance_to(bar, fraction * duration),
-                            live=live)
+        return api.run(scenario, out, progress=lambda fraction: advance_to(bar, fraction * duration),
+                       keep_trace=False, live=live, prepared=prepared)
 
 
 def _print_summary(result) -> None:
@@ -109,12 +109,12 @@ def check(args) -> int:
     names = args.scenarios or sorted(str(p) for p in SCENARIO_DIR.glob("*.yaml"))
     with reserved_for_json(args.json):  # a plug-in's prints go to stderr
         scenarios = [api.load(name) for name in names]  # every one valid before any runs
-        for scenario in scenarios:
-            prepare(scenario)
-        outs = [output_path(Path(args.out_dir) / f"{file_stem(Path(n).stem)}.rrd", "--out-dir")
+        built = [prepare(scenario) for scenario in scenarios]
+        outs = [checked_output(Path(args.out_dir) / f"{file_stem(Path(n).stem)}.rrd", "--out-dir")
                 for n in names]
         show = sys.stderr.isatty() and not args.json
-        results = [_run_loaded(scenario, out, show) for scenario, out in zip(scenarios, outs)]
+        results = [_run_loaded(scenario, out, show, prepared=parts)
+                   for scenario, out, parts in zip(scenarios, outs, built)]
 
     def report():
         if args.json:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 from testbed.errors import InputError, quoted
@@ -18,6 +19,22 @@ def file_stem(name: str) -> str:
     most 100 characters (file systems take 255 bytes, and a suffix and a temporary part follow)."""
     stem = re.sub(r"[^A-Za-z0-9._-]+", "_", name).lstrip(".")
     return stem.replace("..", "_")[:100] or "run"
+
+
+@dataclass(frozen=True)
+class CheckedPath:
+    """A trace path `output_path` has checked (`checked_output`), handed down to a run
+    (`testbed.run`) so that it is not checked again."""
+
+    path: Path
+
+    def __fspath__(self) -> str:
+        return str(self.path)
+
+
+def checked_output(out, field: str = "--out") -> CheckedPath:
+    """`output_path(out, field)`, marked as checked."""
+    return CheckedPath(output_path(out, field))
 
 
 def output_path(out, field: str = "--out") -> Path:

@@ -64,10 +64,11 @@ class Recorder:
     """Signals keyed `group/name`, one row per sample, all sharing one time column.
 
     `on_chunk(chunk)` is called with every full chunk (and the last, partial one on `flush()`);
+    the chunks it returns, computed from that one (a reference's rows), are kept with it;
     `keep`: the keys whose whole history `recorder[key]` returns (None: every key)."""
 
     def __init__(self, chunk_rows: int = CHUNK_ROWS, keep: set[str] | None = None,
-                 on_chunk: Callable[[Chunk], None] | None = None, flush_after_s: float | None = None):
+                 on_chunk: Callable[[Chunk], list[Chunk]] | None = None, flush_after_s: float | None = None):
         self.chunk_rows = chunk_rows
         self.keep = keep
         self.on_chunk = on_chunk
@@ -116,9 +117,10 @@ class Recorder:
         self._first = self.count
         if self.keep is None or self.keep:
             self._kept_time.put(chunk.first_row, chunk.time)
-        if self.on_chunk is not None:
-            self.on_chunk(chunk)
+        derived = self.on_chunk(chunk) if self.on_chunk is not None else ()
         self.keep_chunk(chunk)
+        for extra in derived:
+            self.keep_chunk(extra)
 
     def keep_chunk(self, chunk: Chunk) -> None:
         """Add a chunk's rows (of the run's samples, or computed from them) to the kept history."""

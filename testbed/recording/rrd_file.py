@@ -19,6 +19,7 @@ from pathlib import Path
 import rerun as rr
 
 from testbed.recording.atomic_file import partial_beside
+from testbed.recording.rrd_frames import whole_frames_end
 from testbed.errors import WriteFailed
 
 FLUSH_STEP_S = 0.5
@@ -103,9 +104,16 @@ class FileStream:
             return -1
 
     def close(self) -> None:
-        """Every logged message flushed and the file ended (Rerun's footer if asked for)."""
+        """Every logged message flushed and the file ended (Rerun's footer if asked for). Rerun
+        writes the end on its own thread and says nothing when that write fails: a file that does
+        not end on a whole message is WriteFailed, not a finished trace."""
         self.flush()
         self.rec.disconnect()
+        size = self._size()
+        if whole_frames_end(Path(self.partial)) < size:
+            raise WriteFailed(self.path, write_refusal(self.path.parent)
+                              or f"Rerun's file writer left its last {size - whole_frames_end(Path(self.partial))} "
+                                 f"bytes cut short")
 
     def close_after(self, error: BaseException) -> None:
         """End the stream as a block that raised `error` leaves it: abandoned when the writer may be

@@ -26,18 +26,20 @@ def _chunks(path: Path):
     return reader.stream()
 
 
-def read_rrd(path: Path) -> dict:
-    """Read back a run: entities, time span, the stored result (not recomputed), `cut_bytes` (of a
-    last message cut short, testbed.recording.rrd_frames) and `finished`: False for the trace of a
-    run that stopped before its end (killed: its stored result is the placeholder, or a message
-    was cut)."""
-    info, cut = read_whole_frames(path, _read_rrd)
+def read_rrd(path: Path, signals: bool = False) -> dict:
+    """Read back a run in one pass: entities, time span, the stored result (not recomputed),
+    `cut_bytes` (of a last message cut short, testbed.recording.rrd_frames) and `finished`: False
+    for the trace of a run that stopped before its end (killed: its stored result is the
+    placeholder, or a message was cut); with `signals`, also "trace": every recorded signal as a
+    `Trace` (times to the nanosecond the file stores)."""
+    info, cut = read_whole_frames(path, lambda p: _read_rrd(p, signals))
     unfinished = not isinstance(info["result"], dict) or info["result"].get("error") == UNFINISHED_ERROR
     return info | {"cut_bytes": cut, "finished": cut == 0 and not unfinished}
 
 
-def _read_rrd(path: Path) -> dict:
+def _read_rrd(path: Path, signals: bool) -> dict:
     entities: dict[str, int] = {}
+    parts: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
     t_min, t_max = np.inf, -np.inf
     result = None
     for chunk in _chunks(path):
@@ -47,9 +49,12 @@ def _read_rrd(path: Path) -> dict:
         batch = chunk.to_record_batch()
         entities[entity] = entities.get(entity, 0) + batch.num_rows
         if TIMELINE in batch.schema.names:
-            column = batch.column(TIMELINE).cast("int64").to_numpy()
-            if len(column):
-                t_min, t_max = min(t_min, column.min() / 1e9), max(t_max, column.max() / 1e9)
+            times = batch.column(TIMELINE).cast("int64").to_numpy()
+            if len(times):
+                t_min, t_max = min(t_min, times.min() / 1e9), max(t_max, times.max() / 1e9)
+            if signals and SCALARS in batch.schema.names:
+                values = batch.column(SCALARS).flatten().to_numpy(zero_copy_only=False).reshape(batch.num_rows, -1)
+                parts.setdefault(entity.lstrip("/"), []).append((times / 1e9, values))
         if entity == f"/{RESULT_ENTITY}" and batch.num_rows:
             # the last row written: a run that stops before its first flush has its "did not
             # finish" placeholder and its result in one chunk
@@ -57,26 +62,12 @@ def _read_rrd(path: Path) -> dict:
     if result is None:
         raise ValueError(f"{path}: no {RESULT_ENTITY} entity: not a testbed run")
     span = [float(t_min), float(t_max)] if np.isfinite(t_min) else [0.0, 0.0]
-    return {"entities": entities, "time_span_s": span, "result": result}
+    info = {"entities": entities, "time_span_s": span, "result": result}
+    return info | {"trace": _trace(parts)} if signals else info
 
 
-def read_signals(path: Path) -> Trace:
-    """Every recorded signal of an `.rrd` written by `TraceWriter`, as a `Trace` (times to the
-    nanosecond the file stores; a file cut mid-message up to its last whole one)."""
-    return read_whole_frames(path, _read_signals)[0]
-
-
-def _read_signals(path: Path) -> Trace:
-    parts: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
-    for chunk in _chunks(path):
-        entity = str(chunk.entity_path).lstrip("/")
-        batch = chunk.to_record_batch()
-        if SCALARS not in batch.schema.names or TIMELINE not in batch.schema.names:
-            continue
-        column = batch.column(SCALARS)
-        values = column.flatten().to_numpy(zero_copy_only=False).reshape(batch.num_rows, -1)
-        times = batch.column(TIMELINE).cast("int64").to_numpy() / 1e9
-        parts.setdefault(entity, []).append((times, values))
+def _trace(parts: dict[str, list[tuple[np.ndarray, np.ndarray]]]) -> Trace:
+    """Each signal's chunks in time order, rows that are NaN throughout (a run cut short) left out."""
     signals = {}
     for key, chunks in parts.items():
         t = np.concatenate([c[0] for c in chunks])
@@ -86,3 +77,8 @@ def _read_signals(path: Path) -> Trace:
         keep = ~np.all(np.isnan(v), axis=1)
         signals[key] = (t[keep], v[keep])
     return Trace(signals)
+
+
+def read_signals(path: Path) -> Trace:
+    """Every recorded signal of an `.rrd` written by `TraceWriter`, as a `Trace` (`read_rrd`'s)."""
+    return read_rrd(path, signals=True)["trace"]

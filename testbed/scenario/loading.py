@@ -237,17 +237,28 @@ def apply_override(data: dict, assignment: str) -> None:
 
 def set_field(data: dict, path: str, value) -> None:
     """Set the field at dotted `path` of a raw scenario mapping to `value`, in place (mappings
-    on the way are created)."""
+    on the way are created; a number picks an existing item of a list: `model.faults.0.at_s`)."""
     parts = path.split(".")
     node = data
     for i, part in enumerate(parts[:-1]):
-        child = node.get(part)
+        child = _list_item(node, part, parts[: i + 1]) if isinstance(node, list) else node.get(part)
         if child is None:
             child = node[part] = {}
-        if not isinstance(child, dict):
+        if not isinstance(child, (dict, list)):
             raise InputError(".".join(parts[: i + 1]), "is not a mapping, cannot set a key below it")
         node = child
-    node[parts[-1]] = value
+    if isinstance(node, list):
+        _list_item(node, parts[-1], parts)
+        node[int(parts[-1])] = value
+    else:
+        node[parts[-1]] = value
+
+
+def _list_item(items: list, part: str, parts: list[str]):
+    """The item `part` (a whole number below the length) of a list met on a path."""
+    if not (part.isdigit() and int(part) < len(items)):
+        raise InputError(".".join(parts), f"a list of {len(items)} items is indexed by 0 ... {len(items) - 1}")
+    return items[int(part)]
 
 
 _MISSING = object()
@@ -269,6 +280,8 @@ def field_value(scenario: Scenario, path: str, default=_MISSING):
     for part in rest:
         if isinstance(node, dict):
             node = node.get(part, _MISSING)
+        elif isinstance(node, list):
+            node = node[int(part)] if part.isdigit() and int(part) < len(node) else _MISSING
         elif node is not _MISSING and part in getattr(node, "__dataclass_fields__", {}):
             node = getattr(node, part)
         else:
@@ -289,8 +302,13 @@ def _named(entry: tuple, rest: list[str]):
 
 
 def load_scenario(name_or_path: str, overrides: list[str] = ()) -> Scenario:
+    return parse(*load_mapping(name_or_path, overrides))
+
+
+def load_mapping(name_or_path: str, overrides: list[str] = ()) -> tuple[dict, str]:
+    """The raw mapping of a scenario file (by path or name) with `overrides` applied, and its path."""
     path = resolve_path(name_or_path)
     data = read_yaml(path)
     for assignment in overrides:
         apply_override(data, assignment)
-    return parse(data, str(path))
+    return data, str(path)

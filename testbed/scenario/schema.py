@@ -169,8 +169,10 @@ def load(cls, data, path: str = ""):
 UNIT_SUFFIXES = {
     "_deg_s2": "deg/s^2", "_deg_s": "deg/s", "_deg": "deg", "_rad_s3": "rad/s^3", "_rad_s2": "rad/s^2",
     "_rad_s": "rad/s", "_rad": "rad", "_nms_rad": "N m s/rad", "_nm_rad": "N m/rad", "_nms": "N m s",
-    "_nm": "N m", "_kg_m2": "kg m^2", "_kg": "kg", "_per_s": "1/s", "_1_s": "1/s", "_hz": "Hz",
-    "_rpm": "rpm", "_m": "m", "_s": "s", "_km": "km", "_am2": "A m^2", "_t": "T", "_sfu": "sfu",
+    "_nm": "N m", "_kg_m2": "kg m^2", "_kg_m": "kg m", "_kg": "kg", "_per_s": "1/s", "_1_s": "1/s", "_hz": "Hz",
+    "_rpm": "rpm", "_m": "m", "_s": "s",
+    "_rad_sqrt_s": "rad/s^(1/2)", "_rad_s_sqrt_s": "rad/s^(3/2)", "_arcsec": "arcsec", "_ppm": "ppm",
+    "_deg_h": "deg/h", "_km": "km", "_am2": "A m^2", "_t": "T", "_sfu": "sfu",
 }
 
 
@@ -230,6 +232,9 @@ def describe(cls, path: str = "") -> list[dict]:
             default = "required"
         rows.append({"key": fpath, "type": _shown_type(tp), "unit": unit_of(f.name), "default": default,
                      "bounds": bounds_of(f.name, dict(f.metadata)), "meaning": f.metadata.get("doc", "")})
+        item = get_args(tp)[0] if get_origin(tp) is list else None
+        if item is not None and dataclasses.is_dataclass(item):  # a list of records: each item's fields
+            rows.extend(describe(item, f"{fpath}[]"))
     return rows
 
 

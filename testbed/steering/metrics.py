@@ -17,10 +17,13 @@ from testbed.metrics import metric
 from testbed.math.quaternion import quat_angle, quat_conj, quat_mul
 from testbed.recording.reductions import Last, MaxAbs, Mean, NanMax
 from testbed.steering import STEERING_LAWS
+from testbed.steering.stage import SteeringParams
 
 
 def _steered(scenario) -> bool:
-    return scenario.stages["allocator"][0] in STEERING_LAWS
+    """A steering allocator: a law of testbed.steering, or a stage built on their parameters."""
+    return scenario.stages["allocator"][0] in STEERING_LAWS or isinstance(scenario.stages["allocator"][1],
+                                                                        SteeringParams)
 
 
 def _slewed(scenario) -> bool:
@@ -144,3 +147,25 @@ def torque_error_rel(run) -> float:
     """torque_error_rms / RMS |M_wanted|: the fraction of the wanted torque not delivered."""
     error, wanted = np.sqrt(run.reduced(TORQUE_SQUARES))
     return float(error / max(wanted, 1e-300))
+
+
+def _fault_detecting(scenario) -> bool:
+    return _steered(scenario) and scenario.stages["allocator"][1].fault_detection
+
+
+@metric("isolated_unit", applies=_fault_detecting, uses=())
+def isolated_unit(run) -> float:
+    """The unit the fault detection declared failed first (1-based; 0: none, no alarm)."""
+    return float(run.statistics["allocator"]["isolated_unit"])
+
+
+@metric("isolation_time_s", applies=_fault_detecting, uses=())
+def isolation_time_s(run) -> float:
+    """Time the first unit was declared failed (its residual over threshold `persistence` ticks) [s]; NaN: none."""
+    return float(run.statistics["allocator"]["isolation_time"])
+
+
+@metric("detection_time_s", applies=_fault_detecting, uses=())
+def detection_time_s(run) -> float:
+    """Time the isolated unit's residual first went over its threshold, in the run that led to isolation [s]; NaN: none."""
+    return float(run.statistics["allocator"]["detection_time"])

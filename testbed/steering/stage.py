@@ -1,7 +1,8 @@
 """CMG steering as an allocator: wanted body torque -> gimbal-rate commands.
 
 The cluster must deliver H' = -(M + w x H) (SEEDS §004 eq. 14, 16, body frame) through
-h J(b) b' = H' (eq. 17); J, h and H are read from the compiled model (ClusterGeometry) at
+h J(b) b' = H' (eq. 17), or H' = -M for a law that compensates w x (I w + H) itself
+(testbed.attitude_laws.momentum_input: then `torque_delivered` is -H' too); J, h and H are read from the compiled model (ClusterGeometry) at
 the measured gimbal angles and rotor speeds. Each law of testbed.steering is a stage type:
 `pinv`, `sr`, `gsr`, `minimax_lp`, `minimax`, `minimax_avoid`. When the best achievable
 max |b'_i| exceeds b'max the demand is scaled down, keeping its direction; `scale` records the
@@ -30,6 +31,13 @@ through the servo, whose stiffness gives way to the gyroscopic torque on the gim
 can pass a stop by that compliance (up to 0.006 deg on the 30 deg/s near-singular slew, docs/theory/steering.md
 "Gimbal limits").
 
+Fault detection (optional, every law): `fault_detection: true` compares each unit's measured gimbal
+rate with the command it held and its rotor speed with the nominal one (testbed.steering.fault_isolation,
+thresholds `fault_rate_residual_deg_s`, `fault_rate_residual_rel`, `fault_speed_residual_rel`,
+`fault_persistence`); a unit declared failed has its column of J (and of dJ/dbeta) zeroed, so the
+law runs on the other units' columns, and its command pinned at 0 (a zero column takes any rate
+without torque). `fault_residual` and `failed_units` are recorded; docs/theory/faults.md.
+
 Near-singular default: singular values of J below STAGE_RCOND = 1e-2 of the largest count as
 zero (the library's own default is 1e-9). Then the demand component along the nearly singular
 direction is dropped (the least-squares projection onto the well-conditioned range is
@@ -49,6 +57,7 @@ from testbed.errors import InputError
 from testbed.pipeline import stage
 from testbed.scenario.schema import join, param
 from testbed.steering import LAW_OPTIONS, STEERING_LAWS, STEP_INPUTS
+from testbed.steering.fault_isolation import FaultIsolation
 from testbed.steering.gimbal_limits import GimbalLimits
 from testbed.steering.result import status_code
 
@@ -63,6 +72,13 @@ class SteeringParams:
     gimbal_acceleration_max_deg_s2: float | None = param(None, gt=0, doc="limit on the commanded gimbal acceleration")
     gimbal_angle_limits_deg: list[list[float] | None] | None = None  # per gimbal [min, max] or null (no stops)
     options: dict[str, float] = field(default_factory=dict)  # law options, e.g. rcond, lambda0
+    # fault detection and isolation (fault_isolation.py, docs/theory/faults.md)
+    fault_detection: bool = param(False, doc="detect and isolate a failed unit, then steer on the others")
+    fault_rate_residual_deg_s: float = param(0.2, gt=0, doc="a: absolute part of the gimbal-rate threshold")
+    fault_rate_residual_rel: float = param(0.5, ge=0, lt=1, doc="rho: share of |command| added to the rate threshold")
+    fault_speed_residual_rel: float = param(0.01, gt=0, lt=1, doc="sigma: rotor-speed threshold, share of nominal")
+    fault_persistence: int = param(3, ge=1, le=1000, doc="consecutive control ticks over threshold before isolation")
+    max_failed_units: int = param(1, ge=1, le=10, doc="most units dropped (the rest must keep rank 3)")
 
     def validate(self, path: str) -> None:
         for i, pair in enumerate(self.gimbal_angle_limits_deg or []):
@@ -104,7 +120,7 @@ class SteeringAllocator:
         # and of the momentum the cluster holds in full (see the module doc), and the gimbal-rate
         # limit [rad/s] the law keeps (what torque the cluster can give: momentum_gauge)
         return {"delivered_torque": "torque_delivered", "internal_momentum": "momentum",
-                "held_momentum": "held_momentum",
+                "held_momentum": "held_momentum", "law_compensation": True,
                 "gimbal_rate_limit": float(np.radians(params.beta_rate_max_deg_s))}
 
     def __init__(self, params: SteeringParams, ctx):
@@ -121,6 +137,9 @@ class SteeringAllocator:
             raise InputError("pipeline.allocator.type", f"{self.law_name} steering needs a cluster description "
                              "with dJ_i/dbeta_i (unit_jacobian_derivative)")
         self.geometry = ctx.description
+        # a law that compensates w x H itself (testbed.attitude_laws.momentum_input): not added here
+        law = ctx.stages.get("law")
+        self.adds_gyroscopic = not (law is not None and law.design.get("compensates_internal_momentum"))
         self.law = STEERING_LAWS[self.law_name]
         self.rate_max = np.radians(params.beta_rate_max_deg_s)
         self.period = ctx.control_period
@@ -135,6 +154,8 @@ class SteeringAllocator:
         defaults = {"rcond": STAGE_RCOND} if "rcond" in LAW_OPTIONS[self.law_name] else {}
         self.options = defaults | params.options
         self._check_options()
+        self.isolation = FaultIsolation(params, gimbals, getattr(
+            self.geometry, "nominal_rotor_speed", None)) if params.fault_detection else None
         self.reset_statistics()
 
     def applied(self) -> dict:
@@ -173,6 +194,8 @@ class SteeringAllocator:
                            "min_singularity": np.inf, "min_scale": 1.0, "steps": 0,
                            "peak_gimbal_acceleration": 0.0, "acceleration_violations": 0,
                            "angle_limit_violations": 0, "min_angle_margin": np.inf}
+        if self.isolation is not None:
+            self.statistics.update(self.isolation.statistics)
 
     def _count(self, result, beta) -> None:
         """Extremes over EVERY control step, whatever the trace period (read by the metrics);
@@ -200,15 +223,27 @@ class SteeringAllocator:
         torque = np.asarray(demand.get("torque", np.zeros(3)), float)
         omega = np.asarray(estimate.get("omega", np.zeros(3)), float)
         momentum = self.geometry.momentum(beta, rotor)
-        gyroscopic = np.cross(omega, momentum)
+        gyroscopic = np.cross(omega, momentum) if self.adds_gyroscopic else np.zeros(3)
         hdot = -(torque + gyroscopic)
         inputs = self._inputs(t, beta)
         if self.limits is not None:
             if self.setpoint is None:
                 self.setpoint = np.array(beta, dtype=float)
             inputs["rate_bounds"] = self.limits.rate_bounds(self.setpoint, self.previous, self.rate_max)
-        result = self.law(self.geometry.unit_jacobian(beta), self.geometry.h, hdot, self.rate_max,
-                          **self.options, **inputs)
+        jacobian = self.geometry.unit_jacobian(beta)
+        failed = ()
+        if self.isolation is not None:
+            residual = self.isolation.update(t, self.previous, actuators)
+            self.statistics.update(self.isolation.statistics)
+            failed = self.isolation.failed
+            if failed:  # the law runs on the other units' columns (fault_isolation.py)
+                jacobian[:, failed] = 0.0
+                if "column_derivative" in inputs:
+                    inputs["column_derivative"][:, failed] = 0.0
+        result = self.law(jacobian, self.geometry.h, hdot, self.rate_max, **self.options, **inputs)
+        if failed:  # a zero column takes any rate without torque: pin the failed units' at 0
+            result.beta_rate = np.array(result.beta_rate, dtype=float)
+            result.beta_rate[failed] = 0.0
         self._count(result, beta)
         # the full momentum (ClusterGeometry.held_momentum): the spin momentum above plus the turning gimbals'
         held = (momentum + self.geometry.turning_momentum(actuators["gimbal_rate"])
@@ -216,14 +251,18 @@ class SteeringAllocator:
         self.previous = result.beta_rate
         if self.setpoint is not None:  # the servos integrate the held command into their set-point
             self.setpoint = self.setpoint + self.period * result.beta_rate
-        return {"gimbal_rates": result.beta_rate,
-                "torque_delivered": -result.hdot_delivered - gyroscopic,
-                "momentum": momentum,
-                "held_momentum": held,
-                "scale": np.array([result.scale]),
-                "singularity": np.array([result.singularity_measure]),
-                "rank": np.array([float(result.rank)]),
-                "status": np.array([float(status_code(result.status))])}
+        command = {"gimbal_rates": result.beta_rate,
+                   "torque_delivered": -result.hdot_delivered - gyroscopic,
+                   "momentum": momentum,
+                   "held_momentum": held,
+                   "scale": np.array([result.scale]),
+                   "singularity": np.array([result.singularity_measure]),
+                   "rank": np.array([float(result.rank)]),
+                   "status": np.array([float(status_code(result.status))])}
+        if self.isolation is not None:
+            command["fault_residual"] = residual
+            command["failed_units"] = (~self.isolation.healthy).astype(float)
+        return command
 
 
 def _register(name: str) -> None:

@@ -38,8 +38,11 @@ class ClusterGeometry:
     (4, 3) unit vectors. spin_inertia Js_i [kg m^2], nominal_rotor_speed Omega [rad/s],
     rotor_momentum h_i = Js_i Omega (4,), h: the common value of h_i [N m s].
     gimbal_axis_inertia J_g,i [kg m^2] (4,): gimbal frame and rotor about the gimbal axis (0,
-    the spin momentum alone, until `with_gimbal_inertia` gives it).
+    the spin momentum alone, until `with_gimbal_inertia` gives it). rotor_speed_range (min, max)
+    [rad/s]: the speeds the rotor motors can hold, None for fixed-speed rotors.
     """
+
+    rotor_speed_range: tuple[float, float] | None = None
 
     def __init__(self, gimbal_axes, spin_axes_zero, spin_inertia, nominal_rotor_speed):
         self.gimbal_axes = np.asarray(gimbal_axes, dtype=float)

@@ -16,14 +16,13 @@ from pathlib import Path
 
 import numpy as np
 
-from testbed.cli.commands import command, reported
+from testbed.cli.commands import EXIT_OK, command, reported
 from testbed.errors import InputError
 from testbed.recording.output_paths import output_path
 from testbed.systems.cmg_rhombus.cluster import ClusterGeometry
 from testbed.systems.cmg_rhombus.model import CmgRhombusParams, build
 from testbed.systems.cmg_rhombus.momentum_envelope import EXTERNAL, singular_momenta, write_envelope_rrd
 
-EXIT_OK = 0
 ALPHA_RANGE_DEG = (0.01, 89.99)  # at 0 or 90 deg the rhombus folds flat: the gimbal axes coincide
 H_RANGE_NMS = (1e-6, 1e9)        # rotor momenta the compiled model (rotor inertia h / Omega) can hold
 MAX_POINTS = 200_000  # directions per surface: 8 surfaces of this many points stay well under a GB

@@ -99,6 +99,7 @@ class IntVelocityServo:
         self._write = float_writer(self._rates)  # what apply writes
         self.rate_limit = rate_limit
         self._applied_at = None
+        self._jammed: list[int] = []  # gimbals held at rest whatever the command (a stuck fault)
         IntVelocityServo.start(self, data)  # not a subclass's: that one needs mj_forward first
 
     def start(self, data) -> None:
@@ -120,7 +121,13 @@ class IntVelocityServo:
             self._current = rates.copy()
         else:
             self._current = rates.tolist() if type(rates) is np.ndarray else [float(r) for r in rates]
+        for i in self._jammed:
+            self._current[i] = 0.0
         return True
+
+    def jam(self, i: int) -> None:
+        """Gimbal i holds its angle from now on, whatever it is commanded (a stuck fault, faults.py)."""
+        self._jammed.append(i)
 
     def held_command(self, data) -> np.ndarray:
         """The gimbal-rate command [rad/s] the servos held over the control period that ends
@@ -129,9 +136,21 @@ class IntVelocityServo:
         held = self._previous if self._applied_at == data.time else self._current
         return np.array(held, dtype=float)
 
+    def limit_rate(self, i: int, limit: float) -> None:
+        """Gimbal i follows commands up to `limit` [rad/s] from now on (a rate_limit fault,
+        faults.py); the servo's own limit, when lower, stays."""
+        limits = [np.inf] * len(self._rates) if self.rate_limit is None else (
+            [self.rate_limit] * len(self._rates) if np.isscalar(self.rate_limit) else list(self.rate_limit))
+        limits[i] = min(limits[i], limit)
+        self.rate_limit = limits
+
     def _clipped(self, rates: list) -> list:
         limit = self.rate_limit
-        return rates if limit is None else [min(max(r, -limit), limit) for r in rates]
+        if limit is None:
+            return rates
+        if np.isscalar(limit):
+            return [min(max(r, -limit), limit) for r in rates]
+        return [min(max(r, -bound), bound) for r, bound in zip(rates, limit)]
 
 
 class FeedForwardServo(IntVelocityServo):

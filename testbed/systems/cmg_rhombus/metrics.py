@@ -1,4 +1,5 @@
-"""Metrics of the CMG spacecraft's actuators (the steering metrics live with the steering stages)."""
+"""Metrics of the CMG spacecraft's actuators: servo tracking, the rotor speeds of variable-speed rotors
+(the steering metrics live with the steering stages)."""
 
 from __future__ import annotations
 
@@ -58,6 +59,28 @@ def gimbal_rate_error_rel(run) -> float:
     return float(np.nanmax(error_peak / scale))
 
 
+def _variable_speed(scenario) -> bool:
+    """The rotors may change speed (model.rotor_speed_range_rpm given)."""
+    return scenario.system == "cmg_rhombus" and scenario.model.rotor_speed_range_rpm is not None
+
+
+@dataclass(frozen=True)
+class _SpeedExtremes:
+    """(min, max) over samples and rotors of truth/rotor_rate, as the run goes."""
+
+    def start(self):
+        return np.inf, -np.inf
+
+    def update(self, state, chunk):
+        if "truth/rotor_rate" not in chunk or len(chunk.time) == 0:
+            return state
+        speeds = chunk["truth/rotor_rate"]
+        return min(state[0], float(np.min(speeds))), max(state[1], float(np.max(speeds)))
+
+    def result(self, state):
+        return state
+
+
 def _in_orbit(scenario) -> bool:
     return scenario.system == "cmg_rhombus" and scenario.orbit is not None
 
@@ -82,6 +105,41 @@ class _EnvelopeShare:
 
     def result(self, state):
         return state
+
+
+SPEED_EXTREMES = _SpeedExtremes()
+
+
+@metric("min_rotor_speed_rpm", applies=_variable_speed, uses=(SPEED_EXTREMES,))
+def min_rotor_speed_rpm(run) -> float:
+    """min over trace samples and rotors of the true rotor speed relative to its gimbal [rpm]."""
+    return float(run.reduced(SPEED_EXTREMES)[0] * 30.0 / np.pi)
+
+
+@metric("max_rotor_speed_rpm", applies=_variable_speed, uses=(SPEED_EXTREMES,))
+def max_rotor_speed_rpm(run) -> float:
+    """max over trace samples and rotors of the true rotor speed relative to its gimbal [rpm]."""
+    return float(run.reduced(SPEED_EXTREMES)[1] * 30.0 / np.pi)
+
+
+def _faulted_and_watched(scenario) -> bool:
+    """A fault is injected (model.faults) and the allocator looks for it (fault_detection)."""
+    return (scenario.system == "cmg_rhombus" and bool(scenario.model.faults)
+            and bool(getattr(scenario.stages["allocator"][1], "fault_detection", False)))
+
+
+@metric("fault_isolated_correctly", applies=_faulted_and_watched, uses=())
+def fault_isolated_correctly(run) -> float:
+    """1 when the unit the detection declared failed first is the first unit model.faults breaks, else 0."""
+    first = min(run.scenario.model.faults, key=lambda f: f.at_s)
+    return float(run.statistics["allocator"]["isolated_unit"] == first.unit)
+
+
+@metric("fault_isolation_delay_s", applies=_faulted_and_watched, uses=())
+def fault_isolation_delay_s(run) -> float:
+    """Time from the first fault's at_s to the first isolation [s] (NaN: none; < 0: a false alarm before it)."""
+    first = min(run.scenario.model.faults, key=lambda f: f.at_s)
+    return float(run.statistics["allocator"]["isolation_time"] - first.at_s)
 
 
 ENVELOPE_SHARE = _EnvelopeShare()

@@ -19,6 +19,7 @@ from testbed.math.validation import check_principal_inertia
 from testbed.scenario.shipped_files import compile_model, load_spec
 from testbed.scenario.schema import join, param
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTOR_SPEED_NUMERIC, ROTORS, rhombus_axes
+from testbed.systems.cmg_rhombus.faults import FaultEvent, check_faults
 
 GIMBAL_SERVOS = tuple(f"gimbal_rate{i}" for i in range(1, N_CMG + 1))
 ROTOR_SERVOS = tuple(f"rotor_speed{i}" for i in range(1, N_CMG + 1))
@@ -58,6 +59,14 @@ class CmgRhombusParams:
     cancel_initial_momentum: start a zero-momentum spacecraft whatever its initial rate: the
         gimbals start at the set nearest gimbal_angles_deg whose cluster momentum cancels the
         bus's, so the total angular momentum is zero (CmgPlant.initialise).
+    rotor_speed_range_rpm: the speeds the rotor motors can hold, [min, max] around
+        rotor_speed_rpm; given, the rotors may be commanded other speeds (allocator vscmg).
+    gimbal_friction_nm, gimbal_damping_nms_rad: the gimbal bearings' Coulomb friction (MuJoCo's
+        joint frictionloss) and viscous friction (joint damping), both between gimbal and bus;
+        the servo holds the commanded rate against them.
+    rotor_static_imbalance_kg_m, rotor_dynamic_imbalance_kg_m2: Us and Ud of each rotor, whose
+        periodic force and torque on the bus rotor_imbalance.py applies (Basilisk's simple jitter).
+    faults: timed hardware faults of the units (faults.py, docs/theory/faults.md), one per unit.
     """
 
     system: str = "cmg_rhombus"
@@ -79,10 +88,24 @@ class CmgRhombusParams:
     rotor_speed_time_constant_s: float = param(0.02, gt=0)
     gimbal_angles_deg: list[float] = param([45.0, -45.0, -45.0, 45.0], length=4)
     cancel_initial_momentum: bool = param(False, doc="move the initial gimbal angles so that the total momentum is 0")
+    rotor_speed_range_rpm: list[float] | None = param(None, length=2, gt=0, doc=(
+        "[min, max] speed the rotor motors can hold (the speed loops clip their command to it); "
+        "None: fixed-speed rotors"))
+    gimbal_friction_nm: float = param(0.0, ge=0, doc="Coulomb friction torque of each gimbal bearing (MuJoCo frictionloss)")
+    gimbal_damping_nms_rad: float = param(0.0, ge=0, doc="viscous friction of each gimbal bearing (MuJoCo joint damping)")
+    rotor_static_imbalance_kg_m: list[float] = param([0.0] * 4, length=4, ge=0, doc="Us of each rotor (simple jitter)")
+    rotor_dynamic_imbalance_kg_m2: list[float] = param([0.0] * 4, length=4, ge=0, doc="Ud of each rotor (simple jitter)")
+    faults: list[FaultEvent] = param([], doc="timed unit faults: [{at_s, unit, kind, ...}] (docs/theory/faults.md)")
 
     def validate(self, path: str) -> None:
         check_principal_inertia(self.inertia_kg_m2, join(path, "inertia_kg_m2"))
         check_principal_inertia(self.gimbal_inertia_kg_m2, join(path, "gimbal_inertia_kg_m2"))
+        check_faults(self.faults, N_CMG, join(path, "faults"))
+        if self.rotor_speed_range_rpm is not None:
+            low, high = self.rotor_speed_range_rpm
+            if not low <= self.rotor_speed_rpm <= high:
+                raise InputError(join(path, "rotor_speed_range_rpm"), f"[{low:g}, {high:g}] rpm must hold the "
+                                 f"nominal rotor_speed_rpm = {self.rotor_speed_rpm:g}")
         for i, angle in enumerate(self.gimbal_angles_deg):
             # a gimbal angle is periodic; far beyond a turn the float keeps no fraction of a
             # degree (at 1e308 MuJoCo stops the run at its first step as diverged)
@@ -135,7 +158,14 @@ def build(params: CmgRhombusParams, dt: float, integrator: str = "RK4") -> mujoc
         speed = spec.actuator(ROTOR_SERVOS[i])
         speed.gainprm = _with_first(speed.gainprm, [rotor_kv])
         speed.biasprm = _with_first(speed.biasprm, [0.0, 0.0, -rotor_kv])
+        if params.rotor_speed_range_rpm is not None:
+            speed.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+            speed.ctrlrange = np.asarray(params.rotor_speed_range_rpm) * np.pi / 30.0
         _apply_limits(spec, params, i)
+        if params.gimbal_friction_nm or params.gimbal_damping_nms_rad:
+            joint = spec.joint(GIMBALS[i])
+            joint.frictionloss = params.gimbal_friction_nm
+            joint.damping = [params.gimbal_damping_nms_rad, 0.0, 0.0]  # MuJoCo 4: the linear coefficient first
         if params.servo_model != "feedforward":
             spec.delete(spec.actuator(GIMBAL_MOTORS[i]))  # the intvelocity servo has no motor
 

@@ -17,7 +17,8 @@ H(-u, -ε) = H(u, ε), the patterns ε and -ε trace the same surface; we key su
 pattern with ε1 = +1 (8 surfaces, 1 external and 7 internal). Directions u within 1e-6
 of a gimbal axis are dropped: there the projection vanishes and h_i is undetermined.
 
-Only the gimbal axes enter the construction, so any cluster can be passed as a (4, 3)
+Only the gimbal axes enter the construction, so any cluster (any number m of units, e.g. the
+three a failed unit leaves: remaining_cluster_surfaces) can be passed as an (m, 3)
 array (e.g. read from the MuJoCo model); by default they come from α.
 
 What the cluster can hold at all: momentum_gauge.py.
@@ -84,14 +85,14 @@ def _directions(axes, n):
 def envelope_points(alpha, n, h=1.0, axes=None) -> np.ndarray:
     """Points (m, 3) [N m s] of the external momentum envelope (ε = +1) over n directions u."""
     g = rhombus_gimbal_axes(alpha) if axes is None else unit_axes(axes)
-    return singular_momenta(_directions(g, n), EXTERNAL, g, h).sum(axis=1)
+    return singular_momenta(_directions(g, n), (1,) * g.shape[0], g, h).sum(axis=1)
 
 
 def singular_surface_points(alpha, n, h=1.0, axes=None) -> dict[tuple[int, ...], np.ndarray]:
     """{sign pattern ε (ε1 = +1): points (m, 3)} for the envelope (1,1,1,1) and the 7 internal surfaces."""
     g = rhombus_gimbal_axes(alpha) if axes is None else unit_axes(axes)
     # the per-CMG momenta of a pattern are those of the envelope times its signs ε_i (exact)
-    external = singular_momenta(_directions(g, n), EXTERNAL, g, h)
+    external = singular_momenta(_directions(g, n), (1,) * g.shape[0], g, h)
     surfaces = {}
     for rest in itertools.product((1, -1), repeat=g.shape[0] - 1):
         pattern = (1, *rest)
@@ -99,16 +100,26 @@ def singular_surface_points(alpha, n, h=1.0, axes=None) -> dict[tuple[int, ...],
     return surfaces
 
 
+def remaining_cluster_surfaces(axes, failed, n, h=1.0) -> dict[tuple[int, ...], np.ndarray]:
+    """The envelope and internal singular surfaces of the cluster left when the units `failed`
+    (0-based) are dropped: the same construction on the remaining gimbal axes (any number of
+    units; 2^(m-1) surfaces for m units). These are the momenta the remaining units can hold
+    about the failed units' own, wherever those stopped."""
+    g = unit_axes(axes)
+    keep = [i for i in range(g.shape[0]) if i not in set(failed)]
+    return singular_surface_points(None, n, h, g[keep])
+
+
 def surface_name(pattern) -> str:
     """"external" for the envelope, "internal/<p|m per sign>" for an internal singular surface."""
-    if tuple(pattern) == EXTERNAL:
+    if all(s > 0 for s in pattern):
         return "external"
     return "internal/" + "".join("p" if s > 0 else "m" for s in pattern)
 
 
 def surface_color(pattern) -> tuple[int, int, int, int]:
     """RGBA of a surface: blue envelope; internal surfaces orange (odd number of -1) or magenta (even)."""
-    if tuple(pattern) == EXTERNAL:
+    if all(s > 0 for s in pattern):
         return (70, 130, 230, 255)
     return (230, 120, 40, 255) if sum(1 for s in pattern if s < 0) % 2 else (200, 40, 160, 255)
 

@@ -5,6 +5,8 @@
 (gimbal_servo.py) takes the gimbal-rate commands.
 """
 
+import functools
+
 import mujoco
 import numpy as np
 
@@ -14,10 +16,13 @@ from testbed.math.quaternion import quat_conj, quat_rotate
 from testbed.plant import Plant
 from testbed.recording.scene import moving_parts
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTORS, ClusterGeometry
+from testbed.systems.cmg_rhombus.faults import FAULT_CODES, FaultInjector
 from testbed.systems.cmg_rhombus.gimbal_servo import FeedForwardServo, IntVelocityServo
 from testbed.systems.cmg_rhombus.model import GIMBAL_MOTORS, GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS
 from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel
-from testbed.systems.cmg_rhombus.momentum_envelope import singular_surface_points, surface_color, surface_name
+from testbed.systems.cmg_rhombus.rotor_imbalance import RotorImbalance
+from testbed.systems.cmg_rhombus.momentum_envelope import (remaining_cluster_surfaces, singular_surface_points,
+                                                           surface_color, surface_name)
 
 ENVELOPE_DIRECTIONS = 1500  # directions per surface in the trace's momentum view (testbed envelope: 4000)
 
@@ -64,6 +69,9 @@ class CmgRhombus(FreeBus):
         self.gimbal_ctrl = evenly_spaced(self.gimbal_actuator_ids)
         # the servos' rate commands, then the motors' torques when the model has them
         self.gimbal_servo_ctrl = evenly_spaced(np.concatenate([self.gimbal_actuator_ids, self.gimbal_motor_ids]))
+        rotor = self.rotor_actuator_ids[0]  # the speed range the builder gave every rotor loop
+        if model.actuator_ctrllimited[rotor]:
+            self.geometry.rotor_speed_range = tuple(float(v) for v in model.actuator_ctrlrange[rotor])
         # every dof that is not the bus free joint belongs to a gimbal or a rotor
         bus_dofs = set(range(self.qvel_adr, self.qvel_adr + 6))
         self.internal_dofs = np.array([i for i in range(model.nv) if i not in bus_dofs])
@@ -130,7 +138,7 @@ class CmgPlant(Plant):
     """Truth adds gimbal angles and rates, the gimbal-rate command the servos held, rotor
     rates and the cluster momentum H (body frame)."""
 
-    actuators = {"body_torque": (3,), "gimbal_rates": (N_CMG,)}
+    actuators = {"body_torque": (3,), "gimbal_rates": (N_CMG,), "rotor_speeds": (N_CMG,)}
 
     def __init__(self, model, params, control_period: float):
         """`params`: the validated CmgRhombusParams `model` was built from (its servo model and
@@ -151,6 +159,24 @@ class CmgPlant(Plant):
                                           params.gimbal_torque_limit_nm)
         else:
             self.servo = IntVelocityServo(self.bus, self.data, rate_limit)
+        self.faults = FaultInjector(self, params.faults) if params.faults else None
+        unbalanced = any(params.rotor_static_imbalance_kg_m) or any(params.rotor_dynamic_imbalance_kg_m2)
+        self.imbalance = RotorImbalance(self.bus, model, self.data, params.rotor_static_imbalance_kg_m,
+                                        params.rotor_dynamic_imbalance_kg_m2) if unbalanced else None
+
+    def step(self, nstep: int) -> None:
+        """`nstep` physics steps; with rotor imbalance, its wrench renewed before each (rotor_imbalance.py)."""
+        if self.imbalance is None:
+            return super().step(nstep)
+        t0 = self.data.time
+        self.imbalance.step(nstep)
+        self.check_state(t0, nstep)
+
+    def stepper(self, nstep: int):
+        """Plant.stepper's fast path (mj_step, checked every few ticks) unless the rotors are unbalanced."""
+        if self.imbalance is None:
+            return functools.partial(mujoco.mj_step, self.model, self.data, nstep)
+        return functools.partial(self.step, nstep)
 
     def initialise(self, initial) -> None:
         self.bus.initialise(self.data, initial.omega, initial.quat)
@@ -186,6 +212,8 @@ class CmgPlant(Plant):
         signals = super().truth()
         signals.update(gimbal_angle=self._gimbal_angle.copy(), gimbal_rate=self._gimbal_rate.copy(),
                        gimbal_rate_command=self.servo.held_command(self.data), rotor_rate=self._rotor_rate.copy())
+        if self.faults is not None:
+            signals["fault"] = self.faults.codes.copy()  # each unit's active fault (faults.FAULT_CODES)
         return signals
 
     def derived_signals(self, recorder) -> dict[str, np.ndarray]:
@@ -213,13 +241,25 @@ class CmgPlant(Plant):
         return share
 
     def actuator_state(self) -> dict[str, np.ndarray]:
-        """What the gimbal encoders and the gimbal and rotor tachometers report."""
-        return {"gimbal_angle": self._gimbal_angle.copy(), "gimbal_rate": self._gimbal_rate.copy(),
+        """What the gimbal encoders and the gimbal and rotor tachometers report (a faulty
+        gimbal-rate tachometer as it reads: faults.py)."""
+        rate = self._gimbal_rate.copy()
+        if self.faults is not None and self.faults.sensors_faulty:
+            rate = self.faults.tachometer(rate)
+        return {"gimbal_angle": self._gimbal_angle.copy(), "gimbal_rate": rate,
                 "rotor_rate": self._rotor_rate.copy()}
 
     def apply(self, command: dict[str, np.ndarray]) -> None:
         if "body_torque" in command:  # the base class's one actuator, asked for only when commanded
             super().apply(command)
+        if self.faults is not None:
+            self.faults.update(self.data.time)
+        speeds = command.get("rotor_speeds")
+        if speeds is not None:  # variable-speed rotors (MuJoCo clips to the speed range)
+            speeds = np.asarray(speeds, dtype=float)
+            if self.faults is not None:  # a spun-down rotor's motor is off
+                speeds = np.where(self.faults.codes == FAULT_CODES["spin_down"], 0.0, speeds)
+            self.bus.set_rotor_speed_command(self.data, speeds)
         self.servo.apply(self.data, command.get("gimbal_rates"))
 
     def internal_momentum_body(self) -> np.ndarray:
@@ -251,13 +291,18 @@ class CmgPlant(Plant):
                 part["arrows"] = [{"vector": (self.geometry.rotor_momentum[i] * axis).tolist(), "label": f"h{i + 1}"}]
         g = self.geometry
         surfaces = singular_surface_points(g.alpha, ENVELOPE_DIRECTIONS, g.h, g.gimbal_axes)
+        drawn = [{"name": surface_name(p), "points": points, "color": surface_color(p)} for p, points in surfaces.items()]
+        for unit in sorted({fault.unit for fault in (self.faults.planned if self.faults else ())}):
+            # the cluster a fault leaves (momentum_envelope.remaining_cluster_surfaces)
+            remaining = remaining_cluster_surfaces(g.gimbal_axes, [unit - 1], ENVELOPE_DIRECTIONS, g.h)
+            drawn += [{"name": f"without_unit{unit}/{surface_name(p)}", "points": points, "color": surface_color(p)}
+                      for p, points in remaining.items()]
         return super().scene() | {
             "body_momenta": {"truth/cmg_momentum": "cmg_momentum"},
             "units": {"cmg_momentum": "N m s", "singularity_measure": ""},
             "moving_parts": parts,
             "momentum_space": {
                 "title": "cluster momentum H [N m s]: envelope, singular surfaces, H(t)",
-                "surfaces": [{"name": surface_name(p), "points": points, "color": surface_color(p)}
-                             for p, points in surfaces.items()],
+                "surfaces": drawn,
                 "path": "truth/cmg_momentum", "measure": "truth/singularity_measure",
                 "measure_range": [0.0, (N_CMG / 3.0) ** 1.5]}}

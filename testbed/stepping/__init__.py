@@ -1,0 +1,5 @@
+"""Driving a run from Python: a period at a time (`simulation.Simulation`), and Python objects
+in the pipeline's slots in place of registered stages (`given_stages`). docs/stepping.md.
+
+The package imports nothing at its top: `testbed.runner` imports `given_stages`, and
+`simulation` imports the runner."""

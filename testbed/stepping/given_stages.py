@@ -1,0 +1,79 @@
+"""Python objects in the pipeline's slots: a stage the caller built (or a function), and one
+step's command given outright, held to the output checks a plug-in stage is held to
+(testbed.pipeline.OutputCheck). docs/stepping.md "Python objects as stages"."""
+
+from __future__ import annotations
+
+import inspect
+
+from testbed.errors import InputError
+from testbed.pipeline import INTERFACE_SHAPES, SLOTS, OutputCheck
+
+# the method each slot's Protocol calls (testbed.pipeline: Sensor, Estimator, Law, Allocator)
+SLOT_METHODS = {"sensor": "measure", "estimator": "estimate", "law": "torque", "allocator": "allocate"}
+
+
+class FunctionStage:
+    """A plain function as a stage: `function(t, ...)` called as the slot's method, with the
+    slot's arguments (a law's `torque(t, estimate)`, ...)."""
+
+    def __init__(self, slot: str, function, output: str | None = None):
+        self.type_name = getattr(function, "__qualname__", type(function).__name__)
+        if output is not None:
+            self.output = output
+        setattr(self, SLOT_METHODS[slot], function)
+
+
+class GivenOutput:
+    """A stage that returns one fixed output: a command given for one step
+    (`testbed.stepping.Simulation.step`)."""
+
+    type_name = "given"
+
+    def __init__(self, slot: str, output: dict, command_key: str | None = None):
+        self.output = command_key
+        setattr(self, SLOT_METHODS[slot], lambda *args: output)
+
+
+def given_stage(slot: str, stage_object, actuators: dict, configured_output: str | None = None,
+                field: str = "stages"):
+    """(stage, OutputCheck) for `stage_object` in `slot`: an object with the slot's method
+    (and, for an allocator, `output`: the command key, one of the plant's `actuators`), or a
+    function called as that method (an allocator function commands `configured_output`, the
+    configured allocator's key). Anything else is refused (InputError naming `field.slot`)."""
+    where = f"{field}.{slot}"
+    if slot not in SLOTS:
+        raise InputError(f"{field}", f"unknown slot {slot!r} (known: {', '.join(SLOTS)})")
+    method = SLOT_METHODS[slot]
+    if inspect.isclass(stage_object):
+        raise InputError(where, f"got the class {stage_object.__name__}: pass an instance (with a "
+                                f"{method} method) or a function")
+    if callable(getattr(stage_object, method, None)):
+        stage = stage_object
+    elif callable(stage_object):
+        stage = FunctionStage(slot, stage_object, configured_output if slot == "allocator" else None)
+    else:
+        raise InputError(where, f"{type(stage_object).__name__} has no {method} method and is not a function")
+    return stage, output_check(slot, type_of_given(stage), actuators, getattr(stage, "output", None),
+                               getattr(stage, "outputs", ()), where)
+
+
+def output_check(slot: str, name: str, actuators: dict, output: str | None = None, required=(),
+                 where: str = "stages") -> OutputCheck:
+    """The check a plug-in stage of `slot` gets (testbed.pipeline.Pipeline.from_config): the
+    `required` keys, the slot's interface shapes and, for an allocator, its command key `output`
+    with the shape the plant's `actuators` take."""
+    shapes = dict(INTERFACE_SHAPES.get(slot, {}))
+    required = tuple(required)
+    if slot == "allocator":
+        if not isinstance(output, str) or output not in actuators:
+            raise InputError(where, f"an allocator names its command key in `output`, one of "
+                                    f"{sorted(actuators)}; got {output!r}")
+        required += (output,)
+        shapes[output] = actuators[output]
+    return OutputCheck(slot, name, required, shapes)
+
+
+def type_of_given(stage_object) -> str:
+    """What the run summary calls a Python object's stage: its `type_name`, else its class's name."""
+    return str(getattr(stage_object, "type_name", None) or type(stage_object).__qualname__)
