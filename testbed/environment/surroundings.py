@@ -69,6 +69,7 @@ class Surroundings:
         if p is not None and p.magnetometer is not None and p.magnetometer.noise_t > 0:
             self.noise = np.random.default_rng(p.magnetometer.seed)
         self.dipole = ZERO3
+        self.applied_world = np.zeros(6)  # the wrench held on the bus until the next update
 
     def _check_fit(self, orbit_params, plant) -> None:
         """Refuse, before the run, an orbit the drag model is not valid at."""
@@ -128,7 +129,8 @@ class Surroundings:
                 total = total + torque
             if p.magnetic_field is not None:
                 total = total + self._magnetic(r, to_world, jd, plant, signals)
-        self.wrench[3:6] = to_world @ total
+        self.applied_world = np.concatenate([np.zeros(3), to_world @ total])  # (force, torque), world axes
+        self.wrench[:] = self.applied_world
         signals["torque_environment"] = total
         self.signals = signals
 

@@ -169,12 +169,18 @@ class CmgPlant(Plant):
         if self.imbalance is None:
             return super().step(nstep)
         t0 = self.data.time
-        self.imbalance.step(nstep)
+        # in orbit, the environment's held wrench is added to the imbalance's (both are xfrc_applied)
+        self.imbalance.step(nstep, None if self.surroundings is None else self.surroundings.applied_world)
         self.check_state(t0, nstep)
+        if self.surroundings is not None:
+            self.surroundings.update(self)
 
     def stepper(self, nstep: int):
-        """Plant.stepper's fast path (mj_step, checked every few ticks) unless the rotors are unbalanced."""
+        """Plant.stepper's fast path (mj_step, checked every few ticks; in orbit, the surroundings'
+        update after it) unless the rotors are unbalanced."""
         if self.imbalance is None:
+            if self.surroundings is not None:
+                return super().stepper(nstep)
             return functools.partial(mujoco.mj_step, self.model, self.data, nstep)
         return functools.partial(self.step, nstep)
 
