@@ -8,6 +8,7 @@ docs/theory/environment.md "Trace")."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -34,8 +35,6 @@ def in_orbit(scenario):
     """The scenario with its initial attitude and rate in ECI (testbed.orbit.config.initial_in_eci)."""
     if scenario.orbit is None:
         return scenario
-    import dataclasses
-
     return dataclasses.replace(scenario, initial=initial_in_eci(scenario.orbit, scenario.initial))
 
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.guidance.tracking_law import TrackingLaw
-from testbed.math.quaternion import quat_mul, quat_rotate, quat_conj, rotation_vector
+from testbed.math.quaternion import quat_conj, quat_rotate, rotation_vector
 from testbed.math.validation import unit_quaternion
 from testbed.orbit.frames import lvlh_quat, lvlh_rate
 from testbed.pipeline import require_free_body, stage

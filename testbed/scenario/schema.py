@@ -215,7 +215,8 @@ def describe(cls, path: str = "") -> list[dict]:
             continue
         tp = hints[f.name]
         fpath = join(path, f.name)
-        optional = [a for a in get_args(tp) if a is not type(None)] if get_origin(tp) in (typing.Union, types.UnionType) else []
+        union = get_origin(tp) in (typing.Union, types.UnionType)
+        optional = [a for a in get_args(tp) if a is not type(None)] if union else []
         if len(optional) == 1 and dataclasses.is_dataclass(optional[0]):  # an optional block: its fields
             rows.append({"key": fpath, "type": "mapping | None", "unit": "", "default": "None", "bounds": "",
                          "meaning": f.metadata.get("doc", "")})
