@@ -136,8 +136,9 @@ def _free_flying(scenario) -> bool:
 
 
 def _conserves_momentum(scenario) -> bool:
-    """A free body whose actuators are all internal (no ideal external torque)."""
-    return _free_flying(scenario) and pipeline.output_of("allocator", scenario.stages["allocator"][0]) != "body_torque"
+    """A free body whose actuators are all internal (no ideal external torque, no environment torque)."""
+    return (_free_flying(scenario) and scenario.environment is None
+            and pipeline.output_of("allocator", scenario.stages["allocator"][0]) != "body_torque")
 
 
 MOMENTUM_DRIFT = MaxDistanceFromFirst("truth/angular_momentum_world")
@@ -152,7 +153,8 @@ def momentum_drift_rel(run) -> float:
     return float(run.reduced(MOMENTUM_DRIFT) / run.momentum_scale)
 
 
-@metric("energy_drift_rel", applies=lambda s: s.stages["allocator"][0] == "none", uses=(ENERGY_DRIFT, ENERGY_FIRST))
+@metric("energy_drift_rel", applies=lambda s: s.stages["allocator"][0] == "none" and s.environment is None,
+        uses=(ENERGY_DRIFT, ENERGY_FIRST))
 def energy_drift_rel(run) -> float:
     """max |T(t) - T(0)| / T(0) of the kinetic energy (no actuator does work)."""
     return float(run.reduced(ENERGY_DRIFT) / max(abs(run.reduced(ENERGY_FIRST)[0]), 1e-300))

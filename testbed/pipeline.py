@@ -66,6 +66,7 @@ class StageContext:
     end_time: float = float("inf")  # time of the run's last sample [s]
     stages: dict = field(default_factory=dict)  # slot -> StageInfo of every configured stage
     actuators: dict = field(default_factory=dict)  # what the actuators' encoders report at t = 0
+    orbit: Any = None           # the scenario's orbit block (testbed.orbit.config.OrbitParams), or None
 
 
 Signals = dict[str, np.ndarray]

@@ -41,6 +41,12 @@ def float_writer(view: np.ndarray):
     return write
 
 
+def _step_in_surroundings(plant, advance) -> None:
+    """MuJoCo's steps, then the surroundings' update at the new time (Plant.stepper)."""
+    advance()
+    plant.surroundings.update(plant)
+
+
 class SimulationDiverged(RuntimeError):
     """MuJoCo hit a bad acceleration or a non-finite state; carries the time it happened."""
 
@@ -71,6 +77,7 @@ class Plant:
         self._bad_counts = self.data.warning.number[kinds[0]:kinds[-1] + 1]
         self._qvel = self.data.qvel
         self.record_energy = False  # the runner turns it on where no actuator does work
+        self.surroundings = None  # the orbit and its torques (testbed.environment.surroundings), set by the runner
 
     # --- state -------------------------------------------------------------------------
     @property
@@ -115,6 +122,8 @@ class Plant:
         t0 = self.data.time  # MuJoCo's reset on a bad state also resets data.time
         mujoco.mj_step(self.model, self.data, nstep)
         self.check_state(t0, nstep)
+        if self.surroundings is not None:  # the torques of the orbit at the new time, held until the next update
+            self.surroundings.update(self)
 
     def stepper(self, nstep: int):
         """A function that advances `nstep` physics steps without looking for a bad state:
@@ -122,6 +131,9 @@ class Plant:
         instead. A plant whose `step` does more than mj_step is stepped by `step` itself."""
         if type(self).step is not Plant.step:
             return functools.partial(self.step, nstep)
+        if self.surroundings is not None:
+            return functools.partial(_step_in_surroundings, self, functools.partial(mujoco.mj_step, self.model,
+                                                                                    self.data, nstep))
         return functools.partial(mujoco.mj_step, self.model, self.data, nstep)
 
     def check_state(self, t0: float, nstep: int) -> None:
@@ -150,6 +162,8 @@ class Plant:
                    "angular_momentum_world": self.angular_momentum_world()}
         if self.record_energy:
             signals["kinetic_energy"] = np.array([self.kinetic_energy()])
+        if self.surroundings is not None:
+            signals.update(self.surroundings.signals)
         return signals
 
     def derived_signals(self, recorder) -> dict[str, np.ndarray]:

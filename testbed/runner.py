@@ -20,6 +20,7 @@ from testbed import metrics
 from testbed.recording import trace
 from testbed.references import registry as references_registry
 from testbed.systems import registry as systems_registry
+from testbed.environment import surroundings
 from testbed.errors import InputError, error_line, refused_as
 from testbed.exit_guard import os_exit_raises
 from testbed.pipeline import Pipeline, StageContext, StageFailed, params_dict, stage_infos
@@ -110,10 +111,12 @@ def prepare(scenario, stages: dict | None = None):
 
     Parameters so extreme that building from them overflows or breaks a factorisation are bad
     input, named by the part being built (model, pipeline slot, reference)."""
+    scenario = surroundings.in_orbit(scenario)  # an initial state given in LVLH, in ECI
     with np.errstate(all="raise"), refused_as("model"):
         plant = systems_registry.make_plant(scenario)
-        plant.record_energy = scenario.stages["allocator"][0] == "none"
+        plant.record_energy = scenario.stages["allocator"][0] == "none" and scenario.environment is None
         plant.initialise(scenario.initial)
+        plant.surroundings = surroundings.prepare(scenario, plant)
         ctx = stage_context(scenario, plant.locked_inertia(), plant.description(), plant.actuator_state(),
                             plant.internal_momentum_body())
     with np.errstate(all="raise"):
@@ -151,7 +154,8 @@ def stage_context(scenario, inertia, description=None, actuators=None, internal_
                         free_flying=systems_registry.is_free_flying(scenario),
                         initial=scenario.initial, integrator=sim.integrator,
                         end_time=round(sim.duration_s / sim.control_period_s) * sim.control_period_s,
-                        stages=stage_infos(scenario.stages), actuators=dict(actuators or {}))
+                        stages=stage_infos(scenario.stages), actuators=dict(actuators or {}),
+                        orbit=scenario.orbit)
 
 
 def run_scenario(scenario, out: Path | None, progress=None, keep_data: bool = False,

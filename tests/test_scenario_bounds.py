@@ -110,6 +110,20 @@ PINNED = {
         "estimation_error_startup_deg_s": {"min": 0.01},
         "max_deviation_from_continuous_deg_s": {"max": 0.01},
     },
+    "orbit_libration": {"final_omega_rad_s": {"max": 1.2e-3}},
+    "orbit_momentum_buildup": {
+        "max_pointing_error_deg": {"max": 0.01},
+        "peak_envelope_share": {"max": 0.5},
+    },
+    "orbit_momentum_management": {
+        "peak_envelope_share": {"max": 0.5},
+        "max_pointing_error_deg": {"max": 0.01},
+        "peak_dipole_use": {"max": 1.0},
+    },
+    "orbit_momentum_campaign": {
+        "peak_envelope_share": {"max": 0.8},
+        "peak_dipole_use": {"max": 1.0},
+    },
     "planar_akor": {
         "akor_eta_rel_err": {"max": 2e-3},
         "akor_settling_time_rel_err": {"max": 1e-3},

@@ -14,13 +14,14 @@ import json
 from testbed.cli.commands import command, reported
 from testbed.errors import InputError, quoted
 
-KINDS = ("system", "stage", "metric", "reference")
+KINDS = ("system", "stage", "metric", "reference", "block")
 COLUMNS = ("key", "type", "unit", "default", "bounds", "meaning")
 
 
 @command("describe")
 def add_parser(subparsers) -> None:
-    p = subparsers.add_parser("describe", help="list systems, stages, metrics and references with their parameters")
+    p = subparsers.add_parser("describe", help="list systems, stages, metrics, references and scenario blocks "
+                                               "with their parameters")
     p.add_argument("kind", nargs="?", help=f"one of {', '.join(KINDS)} (default: all)")
     p.add_argument("name", nargs="?", help="one entry (a stage as NAME or SLOT.NAME)")
     out = p.add_mutually_exclusive_group()
@@ -101,6 +102,13 @@ def entries(kind: str | None = None, name: str | None = None, builtin_only: bool
             found.append({"kind": "reference", "name": key, "module": entry.prepare.__module__,
                           "doc": _first_paragraph(entry.prepare.__doc__), "systems": list(entry.systems),
                           "parameters": _parameters(entry.params)})
+    if kind in (None, "block"):
+        from testbed.scenario.loading import SCENARIO_BLOCKS
+
+        for key, (params_cls, records) in SCENARIO_BLOCKS.items():
+            found.append({"kind": "block", "name": key, "module": params_cls.__module__,
+                          "doc": _first_paragraph(params_cls.__doc__), "records": list(records),
+                          "parameters": _parameters(params_cls)})
     if builtin_only:
         found = [e for e in found if e["module"].startswith("testbed.")]
     if name is not None:
@@ -121,6 +129,8 @@ def _facts(entry: dict) -> list[str]:
         facts += [f"reads: {entry['reads']}", f"returns: {entry['returns']}"]
     if entry["kind"] == "reference":
         facts.append(f"systems: {', '.join(entry['systems'])}")
+    if entry.get("records"):
+        facts.append(f"records: {', '.join(entry['records'])}")
     if entry["kind"] == "system" and not entry["free_flying"]:
         facts.append("not a free-flying body")
     return facts

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import rerun.blueprint as rrb
 
+from testbed.recording.orbit_drawing import ORBIT_SIGNAL, ORBIT_SPACE
 from testbed.recording.scene_drawing import MOMENTUM_SPACE, extent
 
 RESULT_ENTITY = "run/result"  # where the writer stores the run's result; the layout shows it
@@ -60,6 +61,8 @@ def blueprint(keys, t_end: float, scene: dict | None, path=None) -> rrb.Blueprin
         left.append(rrb.Spatial3DView(origin="/world", name="attitude and momentum",
                                       eye_controls=rrb.EyeControls3D(position=eye, look_target=[0, 0, 0],
                                                                      eye_up=[0, 0, 1])))
+    if ORBIT_SIGNAL in keys:  # a run in orbit: the Earth, the orbit and the bus on it
+        left.append(rrb.Spatial3DView(origin=f"/{ORBIT_SPACE}", name="orbit (ECI, Mm)"))
     space = (scene or {}).get("momentum_space")
     if space is not None:
         eye = 2.3 * extent(space) * _side_view(np.zeros((1, 3)) if path is None else path)
@@ -70,12 +73,19 @@ def blueprint(keys, t_end: float, scene: dict | None, path=None) -> rrb.Blueprin
     else:
         left.append(rrb.TextDocumentView(origin="/run/summary", name="result"))
     return rrb.Blueprint(
-        rrb.Horizontal(rrb.Vertical(*left, row_shares=[3, 2][: len(left)] if space is None else [1, 1]), plots,
+        rrb.Horizontal(rrb.Vertical(*left, row_shares=_shares(len(left), space is None)), plots,
                        column_shares=[2, 3]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", play_state="following"),  # opens on the run's end
     )
+
+
+def _shares(views: int, result_below: bool) -> list[int]:
+    """Heights of the left column's views: the 3D scene 3 to the result's 2 (or the scene and the
+    momentum space alike); an orbit view as tall as the first."""
+    shares = [3, 2][:views] if result_below else [1, 1]
+    return shares[:1] * (views - len(shares)) + shares
 
 
 def _side_view(path: np.ndarray) -> np.ndarray:

@@ -32,6 +32,7 @@ from testbed.recording.atomic_file import partial_beside, publish
 from testbed.recording.blueprint import RESULT_ENTITY, UNITS, blueprint, series_names
 from testbed.recording.decimation import block_starts, minmax_decimate
 from testbed.recording.rrd_file import FileStream
+from testbed.recording.orbit_drawing import ORBIT_SIGNAL, write_orbit, write_orbit_static
 from testbed.recording.scene_drawing import MOMENTUM_SPACE, extent, measure_colors, write_scene, write_scene_static
 
 APP_ID = "gyrodyne-testbed"
@@ -65,6 +66,7 @@ class TraceWriter:
         space = (scene or {}).get("momentum_space")
         self.path_radius = 0.003 * extent(space) if space else None  # once: the surfaces hold many points
         self.strips = 0
+        self.orbit_strips, self.orbit_end = None, None  # a run in orbit: its path so far (orbit_drawing)
         unfinished = {"scenario": scenario_name, "sim_s": 0.0, "wall_s": 0.0, "status": "error",
                       "error": UNFINISHED_ERROR,
                       "metrics": {}, "checks": []}
@@ -92,6 +94,10 @@ class TraceWriter:
             write_scene(rec, chunk, times, self.scene)
             if "momentum_space" in self.scene:
                 self._write_path(chunk, times, self.scene["momentum_space"])
+        if ORBIT_SIGNAL in chunk.signals and len(chunk.time):
+            if self.orbit_strips is None:
+                write_orbit_static(rec)
+            self.orbit_strips, self.orbit_end = write_orbit(rec, chunk, times, self.orbit_strips or 0, self.orbit_end)
         if new:
             self.keys.update(dict.fromkeys(new))
             space = (self.scene or {}).get("momentum_space")

@@ -12,6 +12,8 @@ Layout (every key optional unless marked; units are in the key names, SI and rad
     reference: {type: NAME, ...}    # an analytic model the truth is compared with
     checks: {METRIC: {max: X} | {min: X}}
     sweep: {grid: {PATH: [values]}, dispersions: {PATH: {normal: [mean, sigma]}}, samples, seed}   (testbed.campaign.spec)
+    orbit: {altitude_km | semi_major_axis_km | tle, ...}   (testbed.orbit.config; a free-flying system)
+    environment: {gravity_gradient, drag, solar_pressure, magnetic_field, ...}   (testbed.environment.config)
 
 `load_scenario(path, overrides)` applies `--set key.path=value` overrides to the raw mapping
 first, so they are validated exactly like the file.
@@ -36,6 +38,8 @@ from testbed.scenario.yaml_reading import read_yaml, yaml_load
 from testbed.scenario.schema import param
 from testbed.scenario.shipped_files import SCENARIO_DIR
 from testbed.campaign.spec import load_spec
+from testbed.environment.config import ENVIRONMENT_SIGNALS, EnvironmentParams
+from testbed.orbit.config import ORBIT_SIGNALS, OrbitParams
 
 
 
@@ -147,6 +151,8 @@ class _RawScenario:
     reference: dict[str, Any] | None = None
     checks: dict[str, Any] = param({})      # each a CheckLimit, read once its metric is known
     sweep: dict[str, Any] | None = None     # testbed.campaign.cases expands it; `run` ignores it
+    orbit: dict[str, Any] | None = None     # testbed.orbit.config.OrbitParams
+    environment: dict[str, Any] | None = None  # testbed.environment.config.EnvironmentParams
 
 
 @dataclass
@@ -163,6 +169,8 @@ class Scenario:
     reference: tuple[str, Any] | None       # (reference name, params)
     checks: dict[str, CheckLimit]
     source: str = ""
+    orbit: Any = None                       # OrbitParams, or None: no orbit
+    environment: Any = None                 # EnvironmentParams, or None: no environment torque
 
 
 def parse(data: dict, source: str = "") -> Scenario:
@@ -183,12 +191,27 @@ def parse(data: dict, source: str = "") -> Scenario:
     if raw.reference is not None:
         reference = references_registry.load_params(raw.reference, "reference")
     scenario = Scenario(raw.name, raw.description, system_name, model, raw.initial, raw.sim,
-                        stages, reference, {}, source)
+                        stages, reference, {}, source, *_orbit_blocks(raw, system_name))
     # after the scenario exists (its metrics depend on it): first that each check names one of
     # them, then its limits, so that `checks.typo.max` is refused as a metric, not as a limit
     metrics.validate_checks(scenario, raw.checks)
     scenario.checks = {name: schema.load(CheckLimit, limits, f"checks.{name}") for name, limits in raw.checks.items()}
     return scenario
+
+
+# Scenario blocks `testbed describe block` lists: their schema and the trace signals they add.
+SCENARIO_BLOCKS = {"orbit": (OrbitParams, ORBIT_SIGNALS), "environment": (EnvironmentParams, ENVIRONMENT_SIGNALS)}
+
+
+def _orbit_blocks(raw: _RawScenario, system_name: str) -> tuple:
+    """The validated `orbit:` and `environment:` blocks (None when absent)."""
+    orbit = None if raw.orbit is None else schema.load(OrbitParams, raw.orbit, "orbit")
+    environment = None if raw.environment is None else schema.load(EnvironmentParams, raw.environment, "environment")
+    if environment is not None and orbit is None:
+        raise InputError("environment", "the environment needs an orbit: add an orbit: block")
+    if orbit is not None and not systems_registry.SYSTEMS[system_name].free_flying:
+        raise InputError("orbit", f"model.system {system_name} is not a free-flying system")
+    return orbit, environment
 
 
 def resolve_path(name_or_path: str) -> Path:

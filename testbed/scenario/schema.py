@@ -172,7 +172,7 @@ UNIT_SUFFIXES = {
     "_nm": "N m", "_kg_m2": "kg m^2", "_kg_m": "kg m", "_kg": "kg", "_per_s": "1/s", "_1_s": "1/s", "_hz": "Hz",
     "_rpm": "rpm", "_m": "m", "_s": "s",
     "_rad_sqrt_s": "rad/s^(1/2)", "_rad_s_sqrt_s": "rad/s^(3/2)", "_arcsec": "arcsec", "_ppm": "ppm",
-    "_deg_h": "deg/h",
+    "_deg_h": "deg/h", "_km": "km", "_am2": "A m^2", "_t": "T", "_sfu": "sfu",
 }
 
 
@@ -215,6 +215,13 @@ def describe(cls, path: str = "") -> list[dict]:
             continue
         tp = hints[f.name]
         fpath = join(path, f.name)
+        union = get_origin(tp) in (typing.Union, types.UnionType)
+        optional = [a for a in get_args(tp) if a is not type(None)] if union else []
+        if len(optional) == 1 and dataclasses.is_dataclass(optional[0]):  # an optional block: its fields
+            rows.append({"key": fpath, "type": "mapping | None", "unit": "", "default": "None", "bounds": "",
+                         "meaning": f.metadata.get("doc", "")})
+            rows.extend(describe(optional[0], fpath))
+            continue
         if dataclasses.is_dataclass(tp):
             rows.extend(describe(tp, fpath))
             continue

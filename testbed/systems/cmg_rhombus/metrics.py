@@ -81,6 +81,32 @@ class _SpeedExtremes:
         return state
 
 
+def _in_orbit(scenario) -> bool:
+    return scenario.system == "cmg_rhombus" and scenario.orbit is not None
+
+
+@dataclass(frozen=True)
+class _EnvelopeShare:
+    """As the run goes: the peak of truth/envelope_share and the first time it reaches 0.9."""
+
+    def start(self):
+        return None, float("nan")
+
+    def update(self, state, chunk):
+        if "truth/envelope_share" not in chunk or len(chunk.time) == 0:
+            return state
+        share = chunk["truth/envelope_share"][:, 0]
+        peak, reached = state
+        peak = _nanmax(peak, share[:, None])
+        full = np.nonzero(share >= 0.9)[0]
+        if full.size and np.isnan(reached):
+            reached = float(chunk.time[full[0]])
+        return peak, reached
+
+    def result(self, state):
+        return state
+
+
 SPEED_EXTREMES = _SpeedExtremes()
 
 
@@ -114,3 +140,19 @@ def fault_isolation_delay_s(run) -> float:
     """Time from the first fault's at_s to the first isolation [s] (NaN: none; < 0: a false alarm before it)."""
     first = min(run.scenario.model.faults, key=lambda f: f.at_s)
     return float(run.statistics["allocator"]["isolation_time"] - first.at_s)
+
+
+ENVELOPE_SHARE = _EnvelopeShare()
+
+
+@metric("peak_envelope_share", applies=_in_orbit, uses=(ENVELOPE_SHARE,))
+def peak_envelope_share(run) -> float:
+    """max_t of the cluster momentum's share of its envelope (the gauge; 1 on the envelope)."""
+    peak = run.reduced(ENVELOPE_SHARE)[0]
+    return float("nan") if peak is None else float(peak[0])
+
+
+@metric("envelope_90_time_s", applies=_in_orbit, uses=(ENVELOPE_SHARE,))
+def envelope_90_time_s(run) -> float:
+    """first time the cluster momentum reaches 90 % of its envelope [s] (NaN: not within the run)."""
+    return run.reduced(ENVELOPE_SHARE)[1]

@@ -169,12 +169,18 @@ class CmgPlant(Plant):
         if self.imbalance is None:
             return super().step(nstep)
         t0 = self.data.time
-        self.imbalance.step(nstep)
+        # in orbit, the environment's held wrench is added to the imbalance's (both are xfrc_applied)
+        self.imbalance.step(nstep, None if self.surroundings is None else self.surroundings.applied_world)
         self.check_state(t0, nstep)
+        if self.surroundings is not None:
+            self.surroundings.update(self)
 
     def stepper(self, nstep: int):
-        """Plant.stepper's fast path (mj_step, checked every few ticks) unless the rotors are unbalanced."""
+        """Plant.stepper's fast path (mj_step, checked every few ticks; in orbit, the surroundings'
+        update after it) unless the rotors are unbalanced."""
         if self.imbalance is None:
+            if self.surroundings is not None:
+                return super().stepper(nstep)
             return functools.partial(mujoco.mj_step, self.model, self.data, nstep)
         return functools.partial(self.step, nstep)
 
@@ -219,10 +225,26 @@ class CmgPlant(Plant):
     def derived_signals(self, recorder) -> dict[str, np.ndarray]:
         """Cluster spin momentum H(beta, Omega), body axes (SEEDS §004 eq. 15), and the singularity
         measure sqrt(det(J J^T)) of the true gimbal angles, from the recorded histories, computed
-        after the run in one vectorised pass."""
+        after the run in one vectorised pass; in orbit also the share of the momentum envelope H
+        takes (`envelope_share`: the gauge max_u u.H / S(u), 1 on the envelope; momentum_gauge.py),
+        at the environment's update instants."""
         beta = recorder["truth/gimbal_angle"]
-        return {"truth/cmg_momentum": self.geometry.momentum(beta, recorder["truth/rotor_rate"]),
-                "truth/singularity_measure": self.geometry.singularity_measure(beta)[:, None]}
+        momentum = self.geometry.momentum(beta, recorder["truth/rotor_rate"])
+        signals = {"truth/cmg_momentum": momentum,
+                   "truth/singularity_measure": self.geometry.singularity_measure(beta)[:, None]}
+        if self.surroundings is not None and len(momentum):  # in orbit: how full the cluster is
+            signals["truth/envelope_share"] = self._envelope_share(recorder.time, momentum)
+        return signals
+
+    def _envelope_share(self, times, momentum) -> np.ndarray:
+        """The gauge of H on the rows at the surroundings' update instants, NaN between (a gauge
+        costs ~1 ms: at every sample of a fast trace it would cost more than the loop)."""
+        period = self.surroundings.period
+        on_grid = np.abs(times / period - np.round(times / period)) < 1e-9 * max(1.0, float(np.max(times)) / period)
+        share = np.full((len(times), 1), np.nan)
+        if on_grid.any():
+            share[on_grid, 0] = self.geometry.momentum_gauge(momentum[on_grid])[0]
+        return share
 
     def actuator_state(self) -> dict[str, np.ndarray]:
         """What the gimbal encoders and the gimbal and rotor tachometers report (a faulty

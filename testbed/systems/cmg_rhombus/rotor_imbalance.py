@@ -53,9 +53,10 @@ class RotorImbalance:
             torque += self.dynamic[i] * speed**2 * v
         return np.concatenate([force, torque])
 
-    def step(self, nstep: int) -> None:
-        """`nstep` physics steps, the wrench renewed before each."""
+    def step(self, nstep: int, held=None) -> None:
+        """`nstep` physics steps, the wrench renewed before each; `held` (6,): a wrench on the bus
+        that others hold over these steps (an environment's), added to it."""
         model, data, applied = self.model, self.data, self.data.xfrc_applied[self.bus_body]
         for _ in range(nstep):
-            applied[:] = self.wrench()
+            applied[:] = self.wrench() if held is None else self.wrench() + held
             mujoco.mj_step(model, data)

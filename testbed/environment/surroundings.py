@@ -1,0 +1,178 @@
+"""The bus in orbit: at every update (environment.update_period_s, a whole number of control
+periods) the orbit's state at the plant's time, the Sun and the shadow, the field, each
+torque the scenario switches on, and the magnetorquers' dipole from the desaturation law;
+their sum is written into MuJoCo's `xfrc_applied` of the bus (world axes), held until the
+next update. The orbit is read from its own grid (testbed.orbit.propagation): the attitude
+never changes it. Every value is recorded with the truth (`truth/orbit_position`, ...,
+docs/theory/environment.md "Trace")."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from testbed.environment.atmosphere import VALID_ALTITUDE_KM, MsisDensity, exponential_density
+from testbed.environment.desaturation import desaturation_dipole
+from testbed.environment.facets import Facets
+from testbed.environment.gravity_gradient import gravity_gradient_torque
+from testbed.environment.magnetic_field import dipole_field, greenwich_angle
+from testbed.errors import InputError
+from testbed.math.cross import cross3
+from testbed.math.quaternion import quat_conj, quat_mul, quat_to_matrix
+from testbed.orbit.config import initial_in_eci
+from testbed.orbit.constants import AU_M, EARTH_RADIUS_M, EARTH_RATE_RAD_S, SOLAR_PRESSURE_1AU_N_M2
+from testbed.orbit.frames import lvlh_quat
+from testbed.orbit.sun import in_cylindrical_shadow, sun_position
+from testbed.plant import SimulationDiverged
+from testbed.scenario.schema import whole_multiple
+
+ZERO3 = np.zeros(3)
+
+
+def in_orbit(scenario):
+    """The scenario with its initial attitude and rate in ECI (testbed.orbit.config.initial_in_eci)."""
+    if scenario.orbit is None:
+        return scenario
+    return dataclasses.replace(scenario, initial=initial_in_eci(scenario.orbit, scenario.initial))
+
+
+class Surroundings:
+    """The orbit and the environment of one plant (see the module doc)."""
+
+    def __init__(self, orbit_params, params, plant, sim):
+        self.orbit = orbit_params.propagator()
+        self.start_jd = orbit_params.start_jd
+        self.params = params
+        self.bus_id = plant.bus.bus_body_id
+        self.wrench = plant.data.xfrc_applied[self.bus_id]
+        if params is None:
+            self.period = sim.control_period_s
+        else:
+            whole_multiple(params.update_period_s, sim.control_period_s, "environment.update_period_s",
+                           "sim.control_period_s")
+            self.period = params.update_period_s
+        self.next_time = 0.0
+        self.signals: dict[str, np.ndarray] = {}
+        self._check_fit(orbit_params, plant)
+        p = params
+        if p is not None and (p.drag is not None or p.solar_pressure is not None):
+            half = p.facet_half_size_m or plant.scene()["bus_half_size"]
+            self.facets = Facets(half, p.centre_of_pressure_offset_m)
+        self.density = None
+        if p is not None and p.drag is not None:
+            self.density = (MsisDensity(p.drag.f107_sfu, p.drag.ap) if p.drag.atmosphere == "nrlmsis"
+                            else None)
+        self.noise = None
+        if p is not None and p.magnetometer is not None and p.magnetometer.noise_t > 0:
+            self.noise = np.random.default_rng(p.magnetometer.seed)
+        self.dipole = ZERO3
+        self.applied_world = np.zeros(6)  # the wrench held on the bus until the next update
+
+    def _check_fit(self, orbit_params, plant) -> None:
+        """Refuse, before the run, an orbit the drag model is not valid at."""
+        if self.params is None or self.params.drag is None:
+            return
+        perigee, apogee = orbit_params.perigee_apogee_m()
+        low, high = VALID_ALTITUDE_KM
+        for name, radius in (("perigee", perigee), ("apogee", apogee)):
+            altitude_km = (radius - EARTH_RADIUS_M) / 1e3
+            if not low <= altitude_km <= high:
+                raise InputError("environment.drag.atmosphere", f"the {name} altitude {altitude_km:.4g} km is "
+                                 f"outside the atmosphere model's validity [{low:g}, {high:g}] km")
+
+    def update(self, plant) -> None:
+        """Recompute and apply the torques if an update is due at the plant's time."""
+        t = plant.data.time
+        if t < self.next_time - 1e-9 * self.period:
+            return
+        self.next_time = (round(t / self.period) + 1) * self.period
+        try:
+            self._update(t, plant)
+        except ValueError as exc:  # SGP4 gave up on the orbit (it decayed): the run ends there
+            raise SimulationDiverged(t, f"the orbit cannot be propagated: {exc}") from None
+
+    def _update(self, t: float, plant) -> None:
+        p = self.params
+        r, v = self.orbit.state(t)
+        q = plant.quat()
+        to_world = quat_to_matrix(q)
+        r_body = to_world.T @ r
+        relative = quat_mul(quat_conj(lvlh_quat(r, v)), q)
+        signals = {"orbit_position": r, "orbit_velocity": v,
+                   "quat_lvlh": relative if relative[0] >= 0 else -relative}  # one sign: a continuous trace
+        total = np.zeros(3)
+        if p is not None:
+            jd = self.start_jd + t / 86400.0
+            if p.gravity_gradient:
+                torque = gravity_gradient_torque(r_body, plant.bus.system_inertia(plant.data))
+                signals["torque_gravity_gradient"] = torque
+                total = total + torque
+            if p.sun:
+                sun = sun_position(jd)
+                shadow = p.eclipse and in_cylindrical_shadow(r, sun)
+                signals["eclipse"] = np.array([1.0 if shadow else 0.0])
+                to_sun = sun - r
+                distance = float(np.linalg.norm(to_sun))
+                signals["sun_direction"] = to_world.T @ (to_sun / distance)
+                if p.solar_pressure is not None:
+                    pressure = 0.0 if shadow else SOLAR_PRESSURE_1AU_N_M2 * (AU_M / distance) ** 2
+                    torque = self.facets.solar_pressure_torque(signals["sun_direction"], pressure,
+                                                              p.solar_pressure.specular, p.solar_pressure.diffuse)
+                    signals["torque_solar_pressure"] = torque
+                    total = total + torque
+            if p.drag is not None:
+                torque = self._drag(r, v, to_world, jd, t)
+                signals["torque_drag"] = torque
+                total = total + torque
+            if p.magnetic_field is not None:
+                total = total + self._magnetic(r, to_world, jd, plant, signals)
+        self.applied_world = np.concatenate([np.zeros(3), to_world @ total])  # (force, torque), world axes
+        self.wrench[:] = self.applied_world
+        signals["torque_environment"] = total
+        self.signals = signals
+
+    def _drag(self, r, v, to_world, jd: float, t: float) -> np.ndarray:
+        """Facet drag in the air co-rotating with the Earth: v_rel = v - omega_E z x r."""
+        altitude_km = (float(np.linalg.norm(r)) - EARTH_RADIUS_M) / 1e3
+        if self.density is None:
+            density = exponential_density(altitude_km)
+        else:
+            theta = greenwich_angle(jd)
+            lon = math.degrees(math.atan2(r[1], r[0]) - theta)
+            lat = math.degrees(math.asin(r[2] / np.linalg.norm(r)))
+            when = np.datetime64("2000-01-01T12:00:00") + np.timedelta64(int(round((jd - 2451545.0) * 86400e3)), "ms")
+            density = self.density(when, (lon + 180.0) % 360.0 - 180.0, lat, altitude_km)
+        v_rel = v - EARTH_RATE_RAD_S * np.array([-r[1], r[0], 0.0])
+        return self.facets.drag_torque(to_world.T @ v_rel, density, self.params.drag.drag_coefficient)
+
+    def _magnetic(self, r, to_world, jd: float, plant, signals) -> np.ndarray:
+        """Residual-dipole and magnetorquer torques m x B (body axes); the magnetometer's
+        reading and the desaturation law's dipole, held until the next update."""
+        p = self.params
+        field = to_world.T @ dipole_field(r, jd)
+        signals["magnetic_field"] = field
+        torque = cross3(np.asarray(p.magnetic_field.residual_dipole_am2, float), field)
+        signals["torque_residual_dipole"] = torque
+        if p.magnetorquers is not None:
+            measured = field if self.noise is None else field + self.noise.normal(0.0, p.magnetometer.noise_t, 3)
+            signals["magnetometer"] = measured
+            m = p.magnetorquers
+            if m.desaturation:
+                self.dipole = desaturation_dipole(plant.internal_momentum_body(), np.asarray(m.target_momentum_nms),
+                                                  measured, m.gain_1_s, m.max_dipole_am2)
+            signals["magnetorquer_dipole"] = self.dipole
+            magnetorquer = cross3(self.dipole, field)
+            signals["torque_magnetorquer"] = magnetorquer
+            torque = torque + magnetorquer
+        return torque
+
+
+def prepare(scenario, plant):
+    """The plant's `Surroundings` (None without an orbit), updated once at t = 0."""
+    if scenario.orbit is None:
+        return None
+    surroundings = Surroundings(scenario.orbit, scenario.environment, plant, scenario.sim)
+    surroundings.update(plant)
+    return surroundings

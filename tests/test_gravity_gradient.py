@@ -1,0 +1,131 @@
+"""Gravity gradient through MuJoCo: the libration of an uncontrolled bus about LVLH
+(validation 1) against the linearised equations of motion, and the momentum a CMG cluster
+soaks up in an inertial hold (validation 3) against a quadrature of 3 mu/r^3 (r x I r)
+written here (docs/theory/environment.md)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+from scipy.optimize import least_squares
+
+import testbed
+
+MU = 3.986004418e14
+RE = 6378137.0
+
+
+def frequencies(t, signals, k):
+    """The k strongest angular frequencies [rad/s] shared by the signals x_i(t): the peaks of
+    the summed FFT power (16x padded, Hann window), refined by one least-squares fit of k
+    sinusoids (each signal its own amplitudes and offset) to all the samples."""
+    signals = [x - x.mean() for x in signals]
+    padded = 16 * len(t)
+    power = sum(np.abs(np.fft.rfft(x * np.hanning(len(x)), padded)) ** 2 for x in signals)
+    omega = np.fft.rfftfreq(padded, t[1] - t[0]) * 2 * np.pi
+    peaks = [i for i in range(1, len(power) - 1) if power[i - 1] <= power[i] >= power[i + 1]]
+    guess = np.sort(omega[sorted(peaks, key=lambda i: -power[i])[:k]])
+    per = 2 * k + 1
+
+    def residual(p):
+        out = []
+        for i, x in enumerate(signals):
+            c = p[k + i * per:k + (i + 1) * per]
+            out.append(c[-1] + sum(c[2 * j] * np.cos(p[j] * t) + c[2 * j + 1] * np.sin(p[j] * t)
+                                   for j in range(k)) - x)
+        return np.concatenate(out)
+
+    start = np.concatenate([guess, np.zeros(per * len(signals))])
+    return np.sort(least_squares(residual, start).x[:k])
+
+
+def roll_yaw_frequencies(inertia, n):
+    """The two roll-yaw frequencies of the linearised motion about LVLH (x roll along-track,
+    y pitch opposite the orbit normal, z yaw nadir; Wie, *Space Vehicle Dynamics and Control*,
+    sec. 7.2): Ix phi'' - n (Ix - Iy + Iz) psi' + 4 n^2 (Iy - Iz) phi = 0,
+    Iz psi'' + n (Ix - Iy + Iz) phi' + n^2 (Iy - Ix) psi = 0, as the eigenvalues of the
+    first-order system in (phi, psi, phi', psi')."""
+    ix, iy, iz = inertia
+    g = ix - iy + iz
+    a = np.array([[0, 0, 1, 0], [0, 0, 0, 1],
+                  [-4 * n**2 * (iy - iz) / ix, 0, 0, n * g / ix],
+                  [0, -n**2 * (iy - ix) / iz, -n * g / iz, 0]])
+    eigenvalues = np.linalg.eigvals(a)
+    assert np.allclose(eigenvalues.real, 0.0, atol=1e-12 * n)  # the Lagrange region: neutrally stable
+    return np.sort(np.unique(np.round(np.abs(eigenvalues.imag), 15)))
+
+
+@pytest.mark.parametrize(("inertia", "altitude_km"), [
+    ([1000, 1200, 600], 500),    # the shipped scenario
+    ([1500, 2000, 800], 900),    # neither the inertia nor the altitude of the scenario
+], ids=["shipped", "other"])
+def test_gravity_gradient_libration_frequencies(inertia, altitude_km):
+    """Pitch at n sqrt(3 (Ix - Iz) / Iy) within 0.5 %, the two roll-yaw modes within 1 %
+    (measured: pitch 0.03 % and 0.06 %, roll-yaw at most 0.13 % and 0.2 %: 0.2 deg starts,
+    whose second-order coupling tones bias the fit of six turns of the slow mode that much)."""
+    result = testbed.run("orbit_libration", overrides=[f"model.inertia_kg_m2={inertia}",
+                                                       f"orbit.altitude_km={altitude_km}"])
+    assert result.status == "ok", result.error
+    t, q = result.trace["truth/quat_lvlh"]
+    roll, pitch, yaw = (2 * np.arctan2(q[:, k], q[:, 0]) for k in (1, 2, 3))
+    assert max(np.abs(roll).max(), np.abs(pitch).max(), np.abs(yaw).max()) < math.radians(2)
+    n = math.sqrt(MU / (RE + altitude_km * 1e3) ** 3)
+    ix, iy, iz = inertia
+    assert frequencies(t, [pitch], 1)[0] == pytest.approx(n * math.sqrt(3 * (ix - iz) / iy), rel=5e-3)
+    expected = roll_yaw_frequencies(inertia, n)
+    np.testing.assert_allclose(frequencies(t, [roll, yaw], 2), expected, rtol=1e-2)
+
+
+def _quat_matrices(q):
+    """Body-to-world matrices of quaternions (w, x, y, z), by SciPy (scalar last), (N, 3, 3)."""
+    return Rotation.from_quat(q[:, [1, 2, 3, 0]]).as_matrix()
+
+
+def test_an_inertial_hold_stores_the_integral_of_the_gravity_gradient_torque():
+    """Validation 3, shortened to 1500 s (the shipped run is 5 orbits): with no other torque the
+    whole spacecraft's momentum changes by the torque's integral, and the bus holding still
+    leaves it all in the cluster: R(q) H_body(t) = H(0) + int_0^t R(q) 3 mu/r^3 (r x I r) dt.
+    The torque is evaluated here from the recorded orbit and attitude and the inertia MuJoCo
+    gives at t = 0, and integrated by the trapezoidal rule on the 10 s trace samples (its error
+    ~1e-5 of the integral; the 1 s zero-order hold of the applied torque, ~3e-4): within 1 % of
+    the peak |H|. (The cluster's torque on the bus, -dH/dt, is minus the gradient torque.)"""
+    from testbed.runner import prepare
+
+    overrides = ["sim.duration_s=1500"]
+    plant, _, _ = prepare(testbed.load("orbit_momentum_buildup", overrides))
+    inertia = plant.locked_inertia()
+    result = testbed.run("orbit_momentum_buildup", overrides=overrides)
+    assert result.status == "ok", result.error
+    t, q = result.trace["truth/quat"]
+    _, r = result.trace["truth/orbit_position"]
+    _, h_body = result.trace["truth/cmg_momentum"]
+    to_world = _quat_matrices(q)
+    r_body = np.einsum("nji,nj->ni", to_world, r)
+    distance = np.linalg.norm(r_body, axis=1, keepdims=True)
+    u = r_body / distance
+    torque_world = np.einsum("nij,nj->ni", to_world, 3 * MU / distance**3 * np.cross(u, u @ inertia.T))
+    stored = np.concatenate([np.zeros((1, 3)), np.cumsum((torque_world[1:] + torque_world[:-1]) / 2
+                                                         * np.diff(t)[:, None], axis=0)])
+    h_world = np.einsum("nij,nj->ni", to_world, h_body)
+    peak = np.linalg.norm(h_world, axis=1).max()
+    assert peak > 0.1  # N m s: the torque's secular part builds momentum
+    assert np.abs(h_world - h_world[0] - stored).max() < 0.01 * peak
+
+
+def _print_figures():  # pragma: no cover  (python tests/test_gravity_gradient.py: the measured errors)
+    for inertia, altitude_km in ([1000, 1200, 600], 500), ([1500, 2000, 800], 900):
+        result = testbed.run("orbit_libration", overrides=[f"model.inertia_kg_m2={inertia}",
+                                                           f"orbit.altitude_km={altitude_km}"])
+        t, q = result.trace["truth/quat_lvlh"]
+        roll, pitch, yaw = (2 * np.arctan2(q[:, k], q[:, 0]) for k in (1, 2, 3))
+        n = math.sqrt(MU / (RE + altitude_km * 1e3) ** 3)
+        ix, iy, iz = inertia
+        print(inertia, altitude_km, frequencies(t, [pitch], 1)[0] / (n * math.sqrt(3 * (ix - iz) / iy)) - 1,
+              frequencies(t, [roll, yaw], 2) / roll_yaw_frequencies(inertia, n) - 1)
+
+
+if __name__ == "__main__":
+    _print_figures()
