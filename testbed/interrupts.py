@@ -19,8 +19,22 @@ REDELIVERY_DELAY_S = 1e-3  # finalizers that run while a signal is handled take 
 
 
 class Terminated(BaseException):
-    """SIGTERM, turned into an exception (like KeyboardInterrupt, not an Exception that a stage's
-    error handling would catch) so that a trace being written is removed on the way out."""
+    """SIGTERM (or another signal whose default is to end the process: OTHER_ENDING_SIGNALS),
+    turned into an exception (like KeyboardInterrupt, not an Exception that a stage's error
+    handling would catch) so that a trace being written is removed on the way out; the command
+    then exits 128 + `signum`."""
+
+    signum = signal.SIGTERM
+
+
+# Signals whose default action ends the process with no clean-up (a plug-in's signal.alarm, a
+# terminal hang-up): handled as SIGTERM is, where nothing else handles them (pytest-timeout's
+# SIGALRM handler, say, stays).
+OTHER_ENDING_SIGNALS = (signal.SIGHUP, signal.SIGALRM, signal.SIGUSR1, signal.SIGUSR2)
+
+
+def _terminated_by(signum: int) -> type[Terminated]:
+    return Terminated if signum == signal.SIGTERM else type("Terminated", (Terminated,), {"signum": signum})
 
 
 def from_a_signal(exc: BaseException) -> bool:
@@ -59,8 +73,9 @@ def _raising(exception: type[BaseException], active: threading.Event):
 @contextlib.contextmanager
 def signals_as_exceptions():
     """Within the block (in the main thread; elsewhere it does nothing): SIGINT raises
-    KeyboardInterrupt and SIGTERM raises `Terminated`, both outside any finalizer; a signal the
-    process was started ignoring stays ignored."""
+    KeyboardInterrupt and SIGTERM raises `Terminated`, both outside any finalizer, and so does
+    each of OTHER_ENDING_SIGNALS that nothing handles; a signal the process was started ignoring
+    stays ignored."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -69,6 +84,8 @@ def signals_as_exceptions():
     previous = {signum: signal.signal(signum, _raising(exception, active))
                 for signum, exception in ((signal.SIGINT, KeyboardInterrupt), (signal.SIGTERM, Terminated))
                 if signal.getsignal(signum) != signal.SIG_IGN}  # `nohup`, a background job: still ignored
+    previous |= {signum: signal.signal(signum, _raising(_terminated_by(signum), active))
+                 for signum in OTHER_ENDING_SIGNALS if signal.getsignal(signum) == signal.SIG_DFL}
     try:
         yield
     finally:

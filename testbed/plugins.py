@@ -21,6 +21,7 @@ import hashlib
 import importlib
 import importlib.metadata
 import importlib.util
+import os
 import pkgutil
 import sys
 import traceback
@@ -80,6 +81,7 @@ def _load(field: str, key: str, do_import, where: str) -> None:
     if key in _loaded:
         return
     saved = snapshot()
+    cwd, streams = os.getcwd(), (sys.stdout, sys.stderr)
     try:
         with exit_guard.os_exit_raises():
             _loaded[key] = do_import()
@@ -92,6 +94,12 @@ def _load(field: str, key: str, do_import, where: str) -> None:
         if from_a_signal(exc):
             raise
         raise InputError(field, f"{_failure_place(exc, where)}: {described(exc)}") from None
+    finally:
+        # what the import may have changed of the command's own process: the folder relative
+        # paths are taken in, and where its output and errors go
+        if os.getcwd() != cwd:
+            os.chdir(cwd)
+        sys.stdout, sys.stderr = streams
 
 
 def _failure_place(exc: BaseException, where: str) -> str:

@@ -1,7 +1,15 @@
 """Command line: `testbed run | check | list | inspect | sweep | init | describe` (see README);
-`main` is the entry point (`[project.scripts] testbed = "testbed.cli:main"`)."""
+`entry` is the process's entry point (`[project.scripts] testbed = "testbed.cli:entry"`,
+`python -m testbed`), `main` the command itself (tests call it in their own process)."""
 
+import os
 import sys
+import threading
+import time
+
+# Once the command is over, the process ends within this long, whatever plug-in code left
+# running (a thread that never ends, an atexit handler that sleeps).
+EXIT_BOUND_S = 10.0
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -15,4 +23,31 @@ def main(argv: list[str] | None = None) -> int:
     return dispatch(argv)
 
 
-__all__ = ["main"]
+def entry() -> None:
+    """Run the command and end the process with its status: Python's own shutdown (joining
+    threads, atexit handlers) may take EXIT_BOUND_S at most, and an error it reports is one line."""
+    code = main()
+    sys.unraisablehook = _one_line
+    threading.Thread(target=_end_after, args=(code, EXIT_BOUND_S), daemon=True).start()
+    sys.exit(code)
+
+
+def _end_after(code: int, seconds: float) -> None:
+    time.sleep(seconds)
+    stderr = sys.__stderr__
+    if stderr is not None:
+        print(f"note: plug-in code kept the process from ending; ended it {seconds:g} s after the command",
+              file=stderr, flush=True)
+    os._exit(code)
+
+
+def _one_line(unraisable) -> None:
+    """What Python reports and ignores at shutdown (an atexit handler that raised), in one line."""
+    stderr = sys.__stderr__
+    if stderr is not None:
+        what = unraisable.err_msg or "Exception ignored"
+        print(f"warning: {what}: {unraisable.exc_type.__name__}: {str(unraisable.exc_value)[:200]}",
+              file=stderr, flush=True)
+
+
+__all__ = ["entry", "main"]

@@ -33,6 +33,8 @@ def reported(status: int, report: Callable[[], None]) -> int:
     """`status`, once `report()` has printed the command's output: a reader of stdout that went
     away (`testbed run ... | head -1`) cuts the output short, a stdout that cannot be written
     (`> /dev/full`) costs one line on stderr, and either way the status stays as it is."""
+    if sys.stdout is None:  # a plug-in set it so: the command's output goes where it was to go
+        sys.stdout = sys.__stdout__
     try:
         report()
         sys.stdout.flush()

@@ -8,6 +8,7 @@ line on stderr naming the field and the reason, no traceback, no output file), 1
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 import warnings
 
@@ -60,9 +61,12 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
-    except Terminated:
-        print("terminated", file=sys.stderr)
-        return 143
+    except Terminated as exc:
+        if exc.signum == signal.SIGTERM:
+            print("terminated", file=sys.stderr)
+        else:
+            print(f"terminated by {signal.Signals(exc.signum).name}", file=sys.stderr)
+        return 128 + exc.signum
     except BrokenPipeError as exc:  # the reader of stdout went away where no command's status was known yet
         stdout_lost(exc)
         return EXIT_FAILED
