@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import sys
 import threading
 
 _real_exit, _real_fork, _real_signal = os._exit, os.fork, signal.signal
@@ -37,14 +38,27 @@ def _exit(code: int) -> None:
     _real_exit(code)
 
 
+# Code that is not a plug-in's: the testbed's own, Python's and the installed libraries'
+# (pytest-timeout's alarm, IPython's Ctrl-C handler).
+_LIBRARY_ROOTS = tuple({os.path.dirname(os.path.abspath(__file__)) + os.sep, sys.prefix + os.sep,
+                        sys.base_prefix + os.sep, sys.exec_prefix + os.sep})
+
+
+def _plugin_code(frame) -> bool:
+    """Whether `frame` (the caller of a guarded function) runs code outside the testbed, Python
+    and the installed libraries: a plug-in's (or a user's own stage given from Python)."""
+    file = frame.f_code.co_filename
+    return not (file.startswith(_LIBRARY_ROOTS) or file.startswith("<"))
+
+
 def _fork() -> int:
-    if threading.get_ident() in _guarded:
+    if threading.get_ident() in _guarded and _plugin_code(sys._getframe(1)):
         raise PluginRefused("os.fork() in plug-in code: the run's process may not be forked")
     return _real_fork()
 
 
 def _signal(signum, handler):
-    if threading.get_ident() in _guarded and signum in COMMAND_SIGNALS:
+    if threading.get_ident() in _guarded and signum in COMMAND_SIGNALS and _plugin_code(sys._getframe(1)):
         raise PluginRefused(f"signal.signal({signal.Signals(signum).name}, ...) in plug-in code: "
                             "SIGINT and SIGTERM end the command (130, 143)")
     return _real_signal(signum, handler)

@@ -53,6 +53,9 @@ SHORT = {
     "reorient_fault_campaign": ["sim.duration_s=25"],
     "reorient_fault_free_campaign": ["sim.duration_s=20"],
     "rotor_imbalance_jitter": ["sim.duration_s=0.5"],
+    "orbit_momentum_buildup": ["sim.duration_s=300"],        # past the pointing metric's 60 s settling
+    "orbit_momentum_management": ["sim.duration_s=300"],
+    "orbit_momentum_campaign": ["sim.duration_s=300"],
     "reorient_pinv": ["sim.duration_s=20"],
     "torque_free_skylab": ["sim.duration_s=100"],
     "torque_free_tumble": ["sim.duration_s=200"],
@@ -73,20 +76,22 @@ def _envelope_ratio(t, norms, window) -> float:
     return float(np.max(peaks[1:] / peaks[:-1])) if len(peaks) >= 2 else float("nan")
 
 
+OF_SIGNAL = {reductions.MaxNorm: lambda v: float(np.max(np.linalg.norm(v, axis=1))),
+             reductions.MaxAbs: lambda v: float(np.max(np.abs(v))),
+             reductions.MaxDistanceFromFirst: lambda v: float(np.max(np.linalg.norm(v - v[0], axis=1))),
+             reductions.First: lambda v: v[0],
+             reductions.Last: lambda v: v[-1],
+             reductions.NanMax: lambda v: float(np.nanmax(v))}
+
+
 def whole_history_value(reduction, history: Chunk):
     """The numpy expression a reduction stands for, over the whole history (one row a sample)."""
     t = history.time
     if isinstance(reduction, reductions.WindowPeakRatio):
         return _envelope_ratio(t, np.linalg.norm(history[reduction.key], axis=1), reduction.window)
-    if hasattr(reduction, "key"):
-        v = history[reduction.key]
-        return {reductions.MaxNorm: lambda: float(np.max(np.linalg.norm(v, axis=1))),
-                reductions.MaxAbs: lambda: float(np.max(np.abs(v))),
-                reductions.MaxDistanceFromFirst: lambda: float(np.max(np.linalg.norm(v - v[0], axis=1))),
-                reductions.First: lambda: v[0],
-                reductions.Last: lambda: v[-1],
-                reductions.NanMax: lambda: float(np.nanmax(v))}[type(reduction)]()
-    if not hasattr(reduction, "rows"):  # a system's own reduction: fed the whole history as one chunk
+    if hasattr(reduction, "key") and type(reduction) in OF_SIGNAL:
+        return OF_SIGNAL[type(reduction)](history[reduction.key])
+    if not hasattr(reduction, "rows"):  # a method's or system's own reduction: the whole history as one chunk
         return reduction.result(reduction.update(reduction.start(), history))
     rows = reduction.rows(history)
     if isinstance(reduction, reductions.Mean):
