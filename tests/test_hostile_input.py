@@ -1442,3 +1442,23 @@ def test_a_run_that_diverges_at_its_first_tick_stores_its_own_result(tmp_path):
     result = testbed.run(data, out=tmp_path / "x.rrd")
     assert result.status == "diverged"
     assert testbed.read(tmp_path / "x.rrd").status == "diverged"
+
+
+# --- second hostile round (its findings by number) ------------------------------------------
+
+def _short_sweep(folder: Path, sweep: dict) -> Path:
+    """A one-second planar scenario (test_sweep's BASE) with this `sweep:` block."""
+    from test_sweep import BASE
+
+    return write_yaml(folder, "mini", dict(BASE, sim=dict(BASE["sim"], duration_s=1), checks={}, sweep=sweep))
+
+
+@pytest.mark.parametrize("size", [1001, 10**9])
+def test_a_dispersion_size_past_its_bound_is_refused_at_once(cli, inputs, size):
+    """#1: `size: 1e9` drew 1e9 numbers per case before anything was checked (a hang); the bound
+    (MAX_SIZE components, each a table column) is a schema bound, checked at load."""
+    scenario = _short_sweep(inputs, {"seed": 3, "samples": 2, "dispersions": {
+        "pipeline.law.k": {"uniform": [1, 2], "size": size}}})
+    result = cli("sweep", scenario, "--workers", "1", "--out", "out")
+    assert_refused(result, "sweep.dispersions.pipeline.law.k.size", "<= 1000")
+    assert result.seconds < 5.0
