@@ -1462,3 +1462,77 @@ def test_a_dispersion_size_past_its_bound_is_refused_at_once(cli, inputs, size):
     result = cli("sweep", scenario, "--workers", "1", "--out", "out")
     assert_refused(result, "sweep.dispersions.pipeline.law.k.size", "<= 1000")
     assert result.seconds < 5.0
+
+
+def _api_refusal(call, field: str) -> str:
+    """The InputError `call()` raises (never a raw TypeError or RecursionError): its message."""
+    with pytest.raises(testbed.InputError) as caught:
+        call()
+    assert caught.value.field.startswith(field), caught.value.field
+    assert "\n" not in str(caught.value)
+    return str(caught.value)
+
+
+@pytest.mark.parametrize("overrides, field", [([None], "--set"), ([3], "--set"), (None, "overrides"),
+                                              ("sim.duration_s=1", "overrides")])
+def test_overrides_that_are_not_strings_are_bad_input(overrides, field):
+    """#16: `load(name, [None])` raised TypeError."""
+    _api_refusal(lambda: testbed.load("cmg_open_loop", overrides), field)
+
+
+def test_a_mapping_that_contains_itself_is_bad_input(tmp_path, monkeypatch):
+    """#17: a cycle recursed until RecursionError."""
+    monkeypatch.chdir(tmp_path)
+    data = {"name": "x", "model": {"system": "satellite"}}
+    data["model"]["self"] = data
+    assert "contains itself" in _api_refusal(lambda: testbed.run(data), "model.self.model")
+    looped = [1]
+    looped.append(looped)
+    _api_refusal(lambda: testbed.run({"name": "x", "model": {"system": "satellite"}, "sim": {"a": looped}}), "sim.a.1")
+    assert everything_in(tmp_path) == []
+
+
+def _nested(levels: int) -> dict:
+    """{"sim": {"a": {"a": ... {"a": 1}}}}: the top mapping plus `levels` levels below it."""
+    inner: object = 1
+    for _ in range(levels - 1):
+        inner = {"a": inner}
+    return {"sim": inner}
+
+
+@pytest.mark.parametrize("levels", [18, 19, 20, 21, 5000])
+def test_a_mapping_nested_deeper_than_a_file_may_be_is_refused_as_the_file_is(tmp_path, levels):
+    """#18: 5000 levels raised RecursionError. The API's bound is the file loader's: the same
+    mapping, dumped to YAML text and read by the loader (a second path), is refused iff the API
+    refuses it."""
+    from testbed.scenario.yaml_reading import as_loaded, yaml_load
+
+    data = _nested(levels)
+    file_refuses = levels > 1000  # too deep for yaml.safe_dump itself: the loader's refusal is certain
+    if not file_refuses:
+        try:
+            yaml_load(yaml.safe_dump(data), "file")
+        except testbed.InputError:
+            file_refuses = True
+    if file_refuses:
+        _api_refusal(lambda: as_loaded(data), "sim.a")
+        _api_refusal(lambda: testbed.run({"name": "x", "model": {"system": "satellite"}, **data}), "sim.a")
+    else:
+        assert as_loaded(data) == data
+    assert file_refuses == (levels >= 20)  # 20 levels of nodes: 19 mappings and the value in the last
+
+
+def test_a_progress_that_is_not_callable_is_refused_before_the_run(tmp_path, monkeypatch):
+    """#19: progress="x" raised TypeError mid-run."""
+    monkeypatch.chdir(tmp_path)
+    _api_refusal(lambda: testbed.run("cmg_open_loop", out="x.rrd", progress="x", overrides=[SHORT]), "progress")
+    assert everything_in(tmp_path) == []
+
+
+@pytest.mark.parametrize("path", [None, 3, 1.5, ["x.rrd"]])
+@pytest.mark.parametrize("reader", ["read", "inspect"])
+def test_a_trace_path_that_is_not_a_path_is_bad_input(reader, path):
+    """#20: read(None) / read(3) / inspect(None) raised TypeError."""
+    from testbed import api
+
+    _api_refusal(lambda: getattr(api, reader)(path), "rrd")
