@@ -1536,3 +1536,16 @@ def test_a_trace_path_that_is_not_a_path_is_bad_input(reader, path):
     from testbed import api
 
     _api_refusal(lambda: getattr(api, reader)(path), "rrd")
+
+
+@pytest.mark.parametrize("target", ["target", "made/below/target"])
+def test_a_sweep_out_that_is_a_dangling_symlink_is_written_through(cli, inputs, target):
+    """#2: `--out` a symlink to nothing raised FileExistsError from mkdir; the campaign folder is
+    made where the link points (as `run --out` writes through a link), the link stays."""
+    scenario = _short_sweep(inputs, {"grid": {"pipeline.law.k": [1.0, 4.0]}})
+    link = Path.cwd() / "out"
+    link.symlink_to(target)
+    result = cli("sweep", scenario, "--workers", "1", "--out", "out")
+    assert result.code == 0 and "Traceback" not in result.err, result.err
+    assert link.is_symlink() and (result.cwd / target / "mini_sweep.csv").is_file()
+    assert (result.cwd / target / "summary" / "summary.json").is_file()

@@ -121,3 +121,4 @@ def test_a_last_row_cut_inside_its_last_cell_runs_again_and_the_table_equals_an_
     assert [{k: v for k, v in row.items() if k != "wall_s"} for row in resumed] == \
         [{k: v for k, v in row.items() if k != "wall_s"} for row in reference]
     assert [r["case"] for r in read_parquet(out / "mini_sweep.parquet")] == [0, 1]
+

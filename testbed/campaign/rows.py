@@ -52,6 +52,11 @@ def expected_row(case: Case, applied: dict, metric_names, check_names) -> dict:
                     | {f"check:{name}": "" for name in check_names})
 
 
+def case_trace(folder: Path, index: int) -> Path:
+    """Where case `index` of a campaign writes its trace: DIR/caseNNNN.rrd."""
+    return Path(folder) / f"case{index:04d}.rrd"
+
+
 def run_case(case: Case, rrd: str | None = None) -> dict:
     """Run one case (its trace to `rrd` if given) and return its row (see module doc)."""
     from testbed.campaign.applied_values import applied_values, check_applied
@@ -101,7 +106,8 @@ def run_cases(cases: list[Case], workers: int | None = None, rrd_dir: Path | Non
         with Engine(workers, scheduler) as started:
             return run_cases(cases, rrd_dir=rrd_dir, progress=progress, on_row=on_row, engine=started,
                              case_timeout_s=case_timeout_s)
-    tasks = [(case, str(rrd_dir / f"case{case.index:04d}.rrd") if rrd_dir else None) for case in cases]
+    # absolute, made once here: a case whose stage changes its worker's cwd moves no other case's trace
+    tasks = [(case, str(case_trace(Path(rrd_dir).absolute(), case.index)) if rrd_dir else None) for case in cases]
     rows: dict[int, dict] = {}
 
     def timeout_s(task) -> float | None:

@@ -27,7 +27,7 @@ import sys
 from pathlib import Path
 
 from testbed.cli.commands import EXIT_FAILED, EXIT_OK, command, reported
-from testbed.errors import InputError, WriteFailed
+from testbed.errors import InputError, WriteFailed, quoted
 from testbed.cli.json_stdout import reserved_for_json
 from testbed.cli.progress import advance_to, progress_bar
 
@@ -96,10 +96,16 @@ def load_cases(name: str, overrides: list[str], indices=None):
 
 
 def output_folder(args, name: str) -> Path:
-    """The campaign's folder, refused before anything runs unless it can be written."""
+    """The campaign's folder, absolute (resolved once here, so that a case whose stage changes its
+    worker's cwd cannot send another case's files elsewhere; a symlink, dangling too, is
+    written through), refused before anything runs unless it can be written."""
     from testbed.recording.output_paths import file_stem, output_path
 
-    out = Path(args.out) if args.out else Path("runs") / f"{file_stem(name)}_sweep"
+    given = Path(args.out) if args.out else Path("runs") / f"{file_stem(name)}_sweep"
+    try:
+        out = given.expanduser().resolve(strict=False)
+    except (OSError, RuntimeError, ValueError) as exc:  # a symlink loop, a NUL byte
+        raise InputError("--out", f"cannot write {quoted(str(given))}: {getattr(exc, 'strerror', None) or exc}") from None
     output_path(out / f"{file_stem(name)}.csv")  # probes that a file can be created there (not under a file)
     return out
 
@@ -233,7 +239,7 @@ def _why(row: dict) -> str:
 
 def _rerun_case(args) -> int:
     """`--case N`: case N alone, in this process, its trace written."""
-    from testbed.campaign.rows import run_case
+    from testbed.campaign.rows import case_trace, run_case
     from testbed.recording.output_paths import output_path
 
     with reserved_for_json(args.json):  # a plug-in's prints go to stderr
@@ -241,7 +247,7 @@ def _rerun_case(args) -> int:
         if not 0 <= args.case < spec.count:
             raise InputError("--case", f"must be a case number 0 ... {spec.count - 1}, got {args.case}")
         _, _, (case,) = load_cases(args.scenario, args.set, [args.case])
-        rrd = output_path(output_folder(args, name) / f"case{case.index:04d}.rrd")
+        rrd = output_path(case_trace(output_folder(args, name), case.index))
         row = run_case(case, str(rrd))
 
     def report():
