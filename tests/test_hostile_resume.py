@@ -122,3 +122,10 @@ def test_a_last_row_cut_inside_its_last_cell_runs_again_and_the_table_equals_an_
         [{k: v for k, v in row.items() if k != "wall_s"} for row in reference]
     assert [r["case"] for r in read_parquet(out / "mini_sweep.parquet")] == [0, 1]
 
+
+@pytest.mark.parametrize("flags", [["--resume"], []], ids=["resume", "fresh"])
+def test_a_case_trace_that_is_a_directory_is_refused_before_any_case_runs(cli, finished, tmp_path, flags):
+    """#3: with --rrd, DIR/case0000.rrd a directory made case 0 an error row after the campaign
+    ran; it is an output path of the wrong kind, refused like the table's."""
+    refused_untouched(cli, finished, tmp_path, lambda out: (out / "case0000.rrd").mkdir(), "--out", "case0000.rrd",
+                      "--rrd", *flags)

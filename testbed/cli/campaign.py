@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -110,6 +111,18 @@ def output_folder(args, name: str) -> Path:
     return out
 
 
+def check_case_traces(out: Path, cases) -> None:
+    """Refuse (InputError naming --out) before anything runs a DIR/caseNNNN.rrd that is there but
+    is not a file (a directory): it would fail only when its case is written."""
+    from testbed.campaign.rows import case_trace
+    from testbed.recording.output_paths import output_path
+
+    for case in cases:
+        path = case_trace(out, case.index)
+        if os.path.lexists(path):  # a new file's folder is probed once, with the table's
+            output_path(path)
+
+
 def run(args) -> int:
     from testbed.campaign.case_timeout import checked_case_timeout
     from testbed.campaign.engine import Engine
@@ -123,6 +136,8 @@ def run(args) -> int:
         name, data, cases = load_cases(args.scenario, args.set)
         out = output_folder(args, name)
         table, done = open_table(out, name, data, cases, args)  # refuses a damaged folder; writes nothing
+        if args.rrd:
+            check_case_traces(out, cases)
         clamped = engine.at_most(len(cases))
         with engine:  # an unreachable scheduler is refused before any file is written
             _load_plugins_in_workers(engine, cases)
