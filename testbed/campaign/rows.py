@@ -22,6 +22,8 @@ from testbed.interrupts import from_a_signal
 from testbed.scenario.schema import is_number
 from testbed.campaign.cases import Case
 
+STATUSES = ("ok", "diverged", "error")  # a row's status: its run's (testbed.runner.RunResult) or error
+
 
 def flat(values: dict, prefix: str = "") -> dict:
     """Row cells of `values`: a list of numbers becomes `key[i]` per component, a mapping or a
@@ -44,6 +46,12 @@ def case_row(case: Case, applied: dict, status: str = "", passed: bool = False, 
     return ({"case": case.index, **flat(case.values), "status": status, "passed": passed, "error": error,
              "wall_s": wall_s, "seed": case.seed, **case.derived}
             | flat({path: value for path, (value, _) in applied.items()}, "applied:") | (results or {}))
+
+
+def identity_cells(case: Case) -> dict:
+    """The cells of `case`'s row that its index, seed and values fix, whatever its run did (a
+    row of another case, or edited, differs in one of them)."""
+    return {"case": case.index, **flat(case.values), "seed": case.seed, **case.derived}
 
 
 def expected_row(case: Case, applied: dict, metric_names, check_names) -> dict:

@@ -202,7 +202,7 @@ def open_table(out: Path, name: str, data: dict, cases, args):
     there. Writes nothing; a folder the campaign could not finish in is refused (an output
     path of the wrong kind, a damaged table: testbed.campaign.table)."""
     from testbed.campaign.table import CampaignTable, fingerprint, merge_kinds
-    from testbed.campaign.rows import expected_row
+    from testbed.campaign.rows import STATUSES, expected_row, identity_cells
     from testbed.recording.output_paths import file_stem, output_path
 
     for path in summary_files(out):
@@ -213,7 +213,8 @@ def open_table(out: Path, name: str, data: dict, cases, args):
         merge_kinds(columns, expected_row(case, case.prepared["applied"], case.prepared["metrics"],
                                           case.prepared["checks"]))
     identity = {"scenario": name, "set": list(args.set), "cases": len(cases), "fingerprint": fingerprint(data, cases)}
-    table = CampaignTable(out, file_stem(name), columns, identity)
+    table = CampaignTable(out, file_stem(name), columns, identity, {"status": STATUSES},
+                          {case.index: identity_cells(case) for case in cases})
     return table, table.read(args.resume)
 
 
