@@ -187,6 +187,19 @@ def test_init_on_a_full_disk_names_the_file_and_leaves_nothing(full_disk, size, 
     assert files == ["fill"] and not (kept / "proj").exists()
 
 
+def test_a_case_rerun_on_a_full_disk_is_one_stderr_line(full_disk, campaign):
+    """#22: `sweep --case N` printed its WriteFailed as an error row on stdout, then `trace:`
+    naming a file that was not written. Now: exit 1, one stderr line naming the trace, no claim."""
+    (_, done), files, _ = full_disk([{"argv": FILL_8K, "size": "12k", "timeout": 30},
+                                     {"argv": _testbed_argv("sweep", campaign, "--case", "1", "--out", "disk/out"),
+                                      "size": "12k", "timeout": 120}], "case")
+    lines = done["err"].splitlines()
+    assert done["code"] == 1 and len(lines) == 1, (done["out"][-2000:], done["err"][-3000:])
+    assert lines[0].startswith("error: ") and lines[0].endswith(f"case0001.rrd: {NO_SPACE}"), lines
+    assert "trace:" not in done["out"] and "WriteFailed" not in done["out"], done["out"]
+    assert files == ["fill"]
+
+
 def test_a_table_whose_disk_fills_names_its_file_and_keeps_its_rows(tmp_path, monkeypatch):
     """The same without a mount: ENOSPC injected at the CSV's write. The rows before stay whole,
     `--resume` reads them back, and no temporary file is left."""

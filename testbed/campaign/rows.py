@@ -65,8 +65,10 @@ def case_trace(folder: Path, index: int) -> Path:
     return Path(folder) / f"case{index:04d}.rrd"
 
 
-def run_case(case: Case, rrd: str | None = None) -> dict:
-    """Run one case (its trace to `rrd` if given) and return its row (see module doc)."""
+def run_case(case: Case, rrd: str | None = None, raises: tuple[type[BaseException], ...] = ()) -> dict:
+    """Run one case (its trace to `rrd` if given) and return its row (see module doc); an
+    exception of `raises` goes to the caller instead (`--case N`: a trace that could not be
+    written is its command's failure, not a row)."""
     from testbed.campaign.applied_values import applied_values, check_applied
     from testbed.runner import run_scenario
     from testbed.scenario.loading import parse
@@ -82,7 +84,7 @@ def run_case(case: Case, rrd: str | None = None) -> dict:
         scenario = parse(case.data, case.source)
         result = run_scenario(scenario, Path(rrd) if rrd else None, on_prepared=read_back)
     except BaseException as exc:  # a case's failure belongs in its row, sys.exit in a worker too
-        if from_a_signal(exc):
+        if from_a_signal(exc) or isinstance(exc, raises):
             raise
         last = traceback.extract_tb(exc.__traceback__)[-1]
         return case_row(case, applied, "error", False,

@@ -264,7 +264,7 @@ def _rerun_case(args) -> int:
             raise InputError("--case", f"must be a case number 0 ... {spec.count - 1}, got {args.case}")
         _, _, (case,) = load_cases(args.scenario, args.set, [args.case])
         rrd = output_path(case_trace(output_folder(args, name), case.index))
-        row = run_case(case, str(rrd))
+        row = run_case(case, str(rrd), raises=(WriteFailed,))  # a full disk: one line, exit 1
 
     def report():
         if args.json:
