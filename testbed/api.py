@@ -29,6 +29,8 @@ from testbed.recording.trace_reader import read_rrd
 def load(name_or_path: str | Path, overrides: list[str] = ()) -> Scenario:
     """A validated scenario: a file path or a name from the shipped scenarios, with
     `key.path=value` overrides applied first (validated exactly like the file)."""
+    if isinstance(overrides, (str, bytes)) or not isinstance(overrides, (list, tuple)):
+        raise InputError("overrides", f"must be a list of key.path=value strings, got {type(overrides).__name__}")
     return load_scenario(str(name_or_path), list(overrides))
 
 
@@ -48,6 +50,8 @@ def run(scenario: Scenario | str | Path | dict, out: str | Path | None = None,
     (docs/stepping.md)."""
     if out is not None and not isinstance(out, (str, os.PathLike)):
         raise InputError("out", f"must be a file path (str or pathlib.Path) or None, got {type(out).__name__}")
+    if progress is not None and not callable(progress):
+        raise InputError("progress", f"must be a function of the fraction done, or None, got {type(progress).__name__}")
     if isinstance(scenario, dict):
         if overrides:
             raise InputError("overrides", "apply overrides to the mapping itself")

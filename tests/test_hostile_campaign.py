@@ -42,7 +42,7 @@ MIXED = ("crash", "sigterm", "sigint")  # mode "mixed": by tag // 3
 @dataclass(kw_only=True)
 class Params:
     tag: int = param(0)
-    mode: str = param("ok")          # ok | hang | crash | sigint | sigterm | mixed
+    mode: str = param("ok")          # ok | hang | crash | sigint | sigterm | chdir | mixed
     misbehave_if_tag_mod3: int = param(-1)  # misbehave only when tag % 3 equals this (-1: always)
 
 
@@ -60,6 +60,8 @@ class HostileLaw:
                     time.sleep(0.05)
             if mode == "crash":  # os._exit would only fail the case (testbed/exit_guard.py)
                 os.abort()
+            if mode == "chdir":  # to the plug-in's own folder: the worker's cwd is elsewhere from now on
+                os.chdir(os.path.dirname(os.path.abspath(__file__)))
             if mode in ("sigint", "sigterm"):
                 os.kill(os.getpid(), signal.SIGINT if mode == "sigint" else signal.SIGTERM)
                 time.sleep(1)  # the signal is delivered meanwhile
@@ -235,6 +237,22 @@ def rows_of(folder: Path) -> list[dict]:
 
     with open(folder / "out" / "hostile.csv", newline="") as handle:
         return list(csv.DictReader(handle))
+
+
+# --- a case that changes its worker's cwd --------------------------------------------------------
+
+def test_a_case_that_changes_its_workers_cwd_sends_no_other_case_elsewhere(folder, capfd, monkeypatch, hostile_law):
+    """#13: case 0 moves its worker's cwd to the plug-in's folder; case 1 then runs in the same
+    worker. With a relative --out, both traces and the table stay in ./out (resolved once, in
+    the command), nothing lands in ./out below the case's new cwd."""
+    monkeypatch.chdir(folder)
+    path = write(folder, campaign(tags=2, mode="chdir", misbehave_if_tag_mod3=0))
+    code = main(["sweep", str(path), "--workers", "1", "--out", "out", "--rrd"])
+    out, err = capfd.readouterr()
+    assert code == 0 and "Traceback" not in err, err
+    assert [(r["status"], r["error"]) for r in rows_of(folder)] == [("ok", ""), ("ok", "")]
+    assert sorted(p.name for p in (folder / "out").glob("case*.rrd")) == ["case0000.rrd", "case0001.rrd"]
+    assert not (hostile_law.parent / "out").exists()
 
 
 # --- a case that runs forever -----------------------------------------------------------------

@@ -58,7 +58,7 @@ DRIVER = textwrap.dedent('''\
         subprocess.run(["mount", "-o", f"remount,size={step['size']}", folder], check=True)
         t0 = time.monotonic()
         proc = subprocess.run(step["argv"], capture_output=True, text=True, timeout=step["timeout"])
-        done.append({"code": proc.returncode, "err": proc.stderr, "s": time.monotonic() - t0})
+        done.append({"code": proc.returncode, "out": proc.stdout, "err": proc.stderr, "s": time.monotonic() - t0})
     shutil.copytree(folder, kept)
     print(json.dumps(done))
 ''')
@@ -168,6 +168,36 @@ def test_a_campaign_on_a_full_disk_keeps_its_rows_and_resumes_once_there_is_room
     got = read_parquet(kept / "out" / "camp.parquet")
     assert len(got) == CAMPAIGN_CASES and all(same_cells(a, b) for a, b in zip(got, expected))
     assert resumed["code"] == (0 if all(row["passed"] for row in expected) else 1)
+
+
+FILL_8K = [sys.executable, "-c", "open('disk/fill', 'wb').write(bytes(8192))"]
+
+
+@pytest.mark.parametrize("size, failed", [("8k", "my_controller.py"), ("12k", "my_scenario.yaml")])
+def test_init_on_a_full_disk_names_the_file_and_leaves_nothing(full_disk, size, failed):
+    """#21 of the second round: init left an empty my_controller.py and exited 2. With no room
+    (8k) the first template fails; with one 4 kB page free the controller (3985 bytes) fits and
+    the scenario does not: exit 1, one line naming the file, neither template nor the folder
+    init made is left (a later init starts afresh)."""
+    (_, done), files, kept = full_disk([{"argv": FILL_8K, "size": size, "timeout": 30},
+                                        {"argv": _testbed_argv("init", "disk/proj"), "size": size, "timeout": 60}],
+                                       "init")
+    lines = done["err"].splitlines()
+    assert done["code"] == 1 and lines == [f"error: disk/proj/{failed}: {NO_SPACE}"], done["err"][-3000:]
+    assert files == ["fill"] and not (kept / "proj").exists()
+
+
+def test_a_case_rerun_on_a_full_disk_is_one_stderr_line(full_disk, campaign):
+    """#22: `sweep --case N` printed its WriteFailed as an error row on stdout, then `trace:`
+    naming a file that was not written. Now: exit 1, one stderr line naming the trace, no claim."""
+    (_, done), files, _ = full_disk([{"argv": FILL_8K, "size": "12k", "timeout": 30},
+                                     {"argv": _testbed_argv("sweep", campaign, "--case", "1", "--out", "disk/out"),
+                                      "size": "12k", "timeout": 120}], "case")
+    lines = done["err"].splitlines()
+    assert done["code"] == 1 and len(lines) == 1, (done["out"][-2000:], done["err"][-3000:])
+    assert lines[0].startswith("error: ") and lines[0].endswith(f"case0001.rrd: {NO_SPACE}"), lines
+    assert "trace:" not in done["out"] and "WriteFailed" not in done["out"], done["out"]
+    assert files == ["fill"]
 
 
 def test_a_table_whose_disk_fills_names_its_file_and_keeps_its_rows(tmp_path, monkeypatch):

@@ -1442,3 +1442,110 @@ def test_a_run_that_diverges_at_its_first_tick_stores_its_own_result(tmp_path):
     result = testbed.run(data, out=tmp_path / "x.rrd")
     assert result.status == "diverged"
     assert testbed.read(tmp_path / "x.rrd").status == "diverged"
+
+
+# --- second hostile round (its findings by number) ------------------------------------------
+
+def _short_sweep(folder: Path, sweep: dict) -> Path:
+    """A one-second planar scenario (test_sweep's BASE) with this `sweep:` block."""
+    from test_sweep import BASE
+
+    return write_yaml(folder, "mini", dict(BASE, sim=dict(BASE["sim"], duration_s=1), checks={}, sweep=sweep))
+
+
+@pytest.mark.parametrize("size", [1001, 10**9])
+def test_a_dispersion_size_past_its_bound_is_refused_at_once(cli, inputs, size):
+    """#1: `size: 1e9` drew 1e9 numbers per case before anything was checked (a hang); the bound
+    (MAX_SIZE components, each a table column) is a schema bound, checked at load."""
+    scenario = _short_sweep(inputs, {"seed": 3, "samples": 2, "dispersions": {
+        "pipeline.law.k": {"uniform": [1, 2], "size": size}}})
+    result = cli("sweep", scenario, "--workers", "1", "--out", "out")
+    assert_refused(result, "sweep.dispersions.pipeline.law.k.size", "<= 1000")
+    assert result.seconds < 5.0
+
+
+def _api_refusal(call, field: str) -> str:
+    """The InputError `call()` raises (never a raw TypeError or RecursionError): its message."""
+    with pytest.raises(testbed.InputError) as caught:
+        call()
+    assert caught.value.field.startswith(field), caught.value.field
+    assert "\n" not in str(caught.value)
+    return str(caught.value)
+
+
+@pytest.mark.parametrize("overrides, field", [([None], "--set"), ([3], "--set"), (None, "overrides"),
+                                              ("sim.duration_s=1", "overrides")])
+def test_overrides_that_are_not_strings_are_bad_input(overrides, field):
+    """#16: `load(name, [None])` raised TypeError."""
+    _api_refusal(lambda: testbed.load("cmg_open_loop", overrides), field)
+
+
+def test_a_mapping_that_contains_itself_is_bad_input(tmp_path, monkeypatch):
+    """#17: a cycle recursed until RecursionError."""
+    monkeypatch.chdir(tmp_path)
+    data = {"name": "x", "model": {"system": "satellite"}}
+    data["model"]["self"] = data
+    assert "contains itself" in _api_refusal(lambda: testbed.run(data), "model.self.model")
+    looped = [1]
+    looped.append(looped)
+    _api_refusal(lambda: testbed.run({"name": "x", "model": {"system": "satellite"}, "sim": {"a": looped}}), "sim.a.1")
+    assert everything_in(tmp_path) == []
+
+
+def _nested(levels: int) -> dict:
+    """{"sim": {"a": {"a": ... {"a": 1}}}}: the top mapping plus `levels` levels below it."""
+    inner: object = 1
+    for _ in range(levels - 1):
+        inner = {"a": inner}
+    return {"sim": inner}
+
+
+@pytest.mark.parametrize("levels", [18, 19, 20, 21, 5000])
+def test_a_mapping_nested_deeper_than_a_file_may_be_is_refused_as_the_file_is(tmp_path, levels):
+    """#18: 5000 levels raised RecursionError. The API's bound is the file loader's: the same
+    mapping, dumped to YAML text and read by the loader (a second path), is refused iff the API
+    refuses it."""
+    from testbed.scenario.yaml_reading import as_loaded, yaml_load
+
+    data = _nested(levels)
+    file_refuses = levels > 1000  # too deep for yaml.safe_dump itself: the loader's refusal is certain
+    if not file_refuses:
+        try:
+            yaml_load(yaml.safe_dump(data), "file")
+        except testbed.InputError:
+            file_refuses = True
+    if file_refuses:
+        _api_refusal(lambda: as_loaded(data), "sim.a")
+        _api_refusal(lambda: testbed.run({"name": "x", "model": {"system": "satellite"}, **data}), "sim.a")
+    else:
+        assert as_loaded(data) == data
+    assert file_refuses == (levels >= 20)  # 20 levels of nodes: 19 mappings and the value in the last
+
+
+def test_a_progress_that_is_not_callable_is_refused_before_the_run(tmp_path, monkeypatch):
+    """#19: progress="x" raised TypeError mid-run."""
+    monkeypatch.chdir(tmp_path)
+    _api_refusal(lambda: testbed.run("cmg_open_loop", out="x.rrd", progress="x", overrides=[SHORT]), "progress")
+    assert everything_in(tmp_path) == []
+
+
+@pytest.mark.parametrize("path", [None, 3, 1.5, ["x.rrd"]])
+@pytest.mark.parametrize("reader", ["read", "inspect"])
+def test_a_trace_path_that_is_not_a_path_is_bad_input(reader, path):
+    """#20: read(None) / read(3) / inspect(None) raised TypeError."""
+    from testbed import api
+
+    _api_refusal(lambda: getattr(api, reader)(path), "rrd")
+
+
+@pytest.mark.parametrize("target", ["target", "made/below/target"])
+def test_a_sweep_out_that_is_a_dangling_symlink_is_written_through(cli, inputs, target):
+    """#2: `--out` a symlink to nothing raised FileExistsError from mkdir; the campaign folder is
+    made where the link points (as `run --out` writes through a link), the link stays."""
+    scenario = _short_sweep(inputs, {"grid": {"pipeline.law.k": [1.0, 4.0]}})
+    link = Path.cwd() / "out"
+    link.symlink_to(target)
+    result = cli("sweep", scenario, "--workers", "1", "--out", "out")
+    assert result.code == 0 and "Traceback" not in result.err, result.err
+    assert link.is_symlink() and (result.cwd / target / "mini_sweep.csv").is_file()
+    assert (result.cwd / target / "summary" / "summary.json").is_file()

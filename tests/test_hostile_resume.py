@@ -53,8 +53,25 @@ def csv_rows(path: Path) -> list[dict]:
         return list(csv.DictReader(handle))
 
 
+def edit_cell(out: Path, case: int, column: str, value: str) -> None:
+    """Set one cell of case `case`'s row (the CSV rewritten whole, as csv writes it)."""
+    path = out / TABLE
+    with open(path, newline="") as handle:
+        lines = list(csv.reader(handle))
+    row = next(cells for cells in lines[1:] if cells[0] == str(case))
+    row[lines[0].index(column)] = value
+    with open(path, "w", newline="") as handle:
+        csv.writer(handle).writerows(lines)
+
+
 # each: the file named in the refusal, and what is done to the finished folder
 DAMAGED = {
+    # #4, #5 of the second round: whole rows of the right kinds that this campaign could not have written
+    "status_bogus": (TABLE, lambda out: edit_cell(out, 0, "status", "bogus")),
+    "status_with_nul": (TABLE, lambda out: edit_cell(out, 0, "status", "o\x00k")),
+    "value_of_another_case": (TABLE, lambda out: edit_cell(out, 0, "pipeline.law.k", "4.0")),
+    "value_changed": (TABLE, lambda out: edit_cell(out, 1, "pipeline.law.k", "99.0")),
+    "seed_changed": (TABLE, lambda out: edit_cell(out, 0, "seed", "1")),
     "not_utf8": (TABLE, lambda out: edit_table(out, lambda lines: [
         lines[0], lines[1].replace(b",ok,", b",o\xff,"), *lines[2:]])),
     "field_over_128kB": (TABLE, lambda out: edit_table(out, lambda lines: [
@@ -121,3 +138,11 @@ def test_a_last_row_cut_inside_its_last_cell_runs_again_and_the_table_equals_an_
     assert [{k: v for k, v in row.items() if k != "wall_s"} for row in resumed] == \
         [{k: v for k, v in row.items() if k != "wall_s"} for row in reference]
     assert [r["case"] for r in read_parquet(out / "mini_sweep.parquet")] == [0, 1]
+
+
+@pytest.mark.parametrize("flags", [["--resume"], []], ids=["resume", "fresh"])
+def test_a_case_trace_that_is_a_directory_is_refused_before_any_case_runs(cli, finished, tmp_path, flags):
+    """#3: with --rrd, DIR/case0000.rrd a directory made case 0 an error row after the campaign
+    ran; it is an output path of the wrong kind, refused like the table's."""
+    refused_untouched(cli, finished, tmp_path, lambda out: (out / "case0000.rrd").mkdir(), "--out", "case0000.rrd",
+                      "--rrd", *flags)

@@ -34,6 +34,10 @@ from testbed.errors import InputError
 from testbed.math.quaternion import quat_from_axis_angle, quat_rotate
 from testbed.scenario.schema import param
 
+# components a `size:` may ask for: each becomes a column of the campaign's table (one cell per
+# case, testbed.campaign.rows.flat), so MAX_SIZE x MAX_CASES cells bound the table; the longest
+# vector a scenario field takes has 6 components
+MAX_SIZE = 1000
 NUMERIC = ("normal", "truncated_normal", "uniform", "log_uniform", "integer")
 KINDS = NUMERIC + ("choice", "misalignment_deg", "uniform_direction")
 
@@ -52,7 +56,7 @@ class Dispersion:
     uniform_direction: bool | None = param(None, doc="a unit vector uniform on the sphere")
     relative: bool = param(False, doc="value = nominal * (1 + draw), per component")
     offset: bool = param(False, doc="value = nominal + draw, per component")
-    size: int | None = param(None, ge=1, doc="components to draw when the field has no nominal list")
+    size: int | None = param(None, ge=1, le=MAX_SIZE, doc="components to draw when the field has no nominal list")
 
     def validate(self, path: str) -> None:
         given = [name for name in KINDS if getattr(self, name) is not None]

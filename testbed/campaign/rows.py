@@ -22,6 +22,8 @@ from testbed.interrupts import from_a_signal
 from testbed.scenario.schema import is_number
 from testbed.campaign.cases import Case
 
+STATUSES = ("ok", "diverged", "error")  # a row's status: its run's (testbed.runner.RunResult) or error
+
 
 def flat(values: dict, prefix: str = "") -> dict:
     """Row cells of `values`: a list of numbers becomes `key[i]` per component, a mapping or a
@@ -46,14 +48,27 @@ def case_row(case: Case, applied: dict, status: str = "", passed: bool = False, 
             | flat({path: value for path, (value, _) in applied.items()}, "applied:") | (results or {}))
 
 
+def identity_cells(case: Case) -> dict:
+    """The cells of `case`'s row that its index, seed and values fix, whatever its run did (a
+    row of another case, or edited, differs in one of them)."""
+    return {"case": case.index, **flat(case.values), "seed": case.seed, **case.derived}
+
+
 def expected_row(case: Case, applied: dict, metric_names, check_names) -> dict:
     """The cells `case`'s row will hold, each with a placeholder of its kind (a table's columns)."""
     return case_row(case, applied, wall_s=0.0, results={name: math.nan for name in metric_names}
                     | {f"check:{name}": "" for name in check_names})
 
 
-def run_case(case: Case, rrd: str | None = None) -> dict:
-    """Run one case (its trace to `rrd` if given) and return its row (see module doc)."""
+def case_trace(folder: Path, index: int) -> Path:
+    """Where case `index` of a campaign writes its trace: DIR/caseNNNN.rrd."""
+    return Path(folder) / f"case{index:04d}.rrd"
+
+
+def run_case(case: Case, rrd: str | None = None, raises: tuple[type[BaseException], ...] = ()) -> dict:
+    """Run one case (its trace to `rrd` if given) and return its row (see module doc); an
+    exception of `raises` goes to the caller instead (`--case N`: a trace that could not be
+    written is its command's failure, not a row)."""
     from testbed.campaign.applied_values import applied_values, check_applied
     from testbed.runner import run_scenario
     from testbed.scenario.loading import parse
@@ -69,7 +84,7 @@ def run_case(case: Case, rrd: str | None = None) -> dict:
         scenario = parse(case.data, case.source)
         result = run_scenario(scenario, Path(rrd) if rrd else None, on_prepared=read_back)
     except BaseException as exc:  # a case's failure belongs in its row, sys.exit in a worker too
-        if from_a_signal(exc):
+        if from_a_signal(exc) or isinstance(exc, raises):
             raise
         last = traceback.extract_tb(exc.__traceback__)[-1]
         return case_row(case, applied, "error", False,
@@ -101,7 +116,8 @@ def run_cases(cases: list[Case], workers: int | None = None, rrd_dir: Path | Non
         with Engine(workers, scheduler) as started:
             return run_cases(cases, rrd_dir=rrd_dir, progress=progress, on_row=on_row, engine=started,
                              case_timeout_s=case_timeout_s)
-    tasks = [(case, str(rrd_dir / f"case{case.index:04d}.rrd") if rrd_dir else None) for case in cases]
+    # absolute, made once here: a case whose stage changes its worker's cwd moves no other case's trace
+    tasks = [(case, str(case_trace(Path(rrd_dir).absolute(), case.index)) if rrd_dir else None) for case in cases]
     rows: dict[int, dict] = {}
 
     def timeout_s(task) -> float | None:

@@ -12,8 +12,8 @@
   case's seed and values): `--resume` continues only the same campaign, skipping the cases
   whose rows the CSV holds; a last line cut short by a crash is dropped and its case runs
   again; any other damage (not UTF-8, an unknown case or one given twice with other cells,
-  a field over 128 kB, a campaign.json that is not an object) is refused before anything is
-  written.
+  a status this campaign does not write, a seed or value that is not its case's, a field
+  over 128 kB, a campaign.json that is not an object) is refused before anything is written.
 """
 
 from __future__ import annotations
@@ -63,7 +63,12 @@ def fingerprint(base: dict, cases) -> str:
 
 
 class CampaignTable:
-    def __init__(self, folder: Path, stem: str, columns: dict[str, str | None], identity: dict):
+    """`choices`: column -> the values a row may hold there (`status`); `cells`: case -> the
+    cells its row must hold (its seed and values). A row read back for --resume that breaks
+    either is damage."""
+
+    def __init__(self, folder: Path, stem: str, columns: dict[str, str | None], identity: dict,
+                 choices: dict[str, tuple] | None = None, cells: dict[int, dict] | None = None):
         self.folder = Path(folder)
         self.csv_path = self.folder / f"{stem}.csv"
         self.parquet_path = self.folder / f"{stem}.parquet"
@@ -71,6 +76,7 @@ class CampaignTable:
         checks = [k for k in columns if k.startswith("check:")]
         self.columns = {k: columns[k] or "str" for k in columns if k not in checks} | {k: "str" for k in checks}
         self.identity = identity
+        self.choices, self.cells = choices or {}, cells or {}
         self.rows: dict[int, dict] = {}
         self._handle = self._writer = None
         self._parquet_at = 0.0
@@ -142,8 +148,21 @@ class CampaignTable:
                 raise _damaged(path, f"line {number}: the campaign has no case {case} (0 ... {count - 1})")
             if cells_of.setdefault(case, cells) != cells:
                 raise _damaged(path, f"line {number}: case {case} is there twice, with different cells")
+            if why := self._not_of_its_case(row):
+                raise _damaged(path, f"line {number}: {why}: not a row this campaign wrote")
             rows[case] = row
         return rows
+
+    def _not_of_its_case(self, row: dict) -> str:
+        """Why `row` cannot be one its case made ("" if it can): a cell outside its column's
+        choices, or one its case fixes (read back as its column's kind holds it) that differs."""
+        for name, allowed in self.choices.items():
+            if name in row and row[name] not in allowed:
+                return f"{name} {quoted(row[name])} is not one of {', '.join(allowed)}"
+        for name, value in self.cells.get(row["case"], {}).items():
+            if name in self.columns and not _same(row.get(name), _read_back(value, self.columns[name])):
+                return f"{name} {quoted(row.get(name))} is not case {row['case']}'s {quoted(value)}"
+        return ""
 
     def _parse(self, cells: list[str]) -> dict | None:
         """A CSV line as a typed row; None for a line of other cells or kinds."""
@@ -253,6 +272,18 @@ def _typed(cell: str, kind: str):
             raise ValueError(cell)
         return cell == "True"
     return cell
+
+
+def _read_back(value, kind: str):
+    """`value` as the CSV gives it back in a column of `kind` (written by _csv_cells, read by _typed)."""
+    if value is None:
+        return _typed("", kind)
+    return _typed(str(_csv_cells({"v": value})["v"]), kind)
+
+
+def _same(a, b) -> bool:
+    """Equal cells; two NaN floats are the same cell."""
+    return a == b or (isinstance(a, float) and isinstance(b, float) and a != a and b != b)
 
 
 def _cell_for(value, kind: str):

@@ -23,11 +23,12 @@ from __future__ import annotations
 
 import contextlib
 import json
+import os
 import sys
 from pathlib import Path
 
 from testbed.cli.commands import EXIT_FAILED, EXIT_OK, command, reported
-from testbed.errors import InputError, WriteFailed
+from testbed.errors import InputError, WriteFailed, quoted
 from testbed.cli.json_stdout import reserved_for_json
 from testbed.cli.progress import advance_to, progress_bar
 
@@ -96,12 +97,30 @@ def load_cases(name: str, overrides: list[str], indices=None):
 
 
 def output_folder(args, name: str) -> Path:
-    """The campaign's folder, refused before anything runs unless it can be written."""
+    """The campaign's folder, absolute (resolved once here, so that a case whose stage changes its
+    worker's cwd cannot send another case's files elsewhere; a symlink, dangling too, is
+    written through), refused before anything runs unless it can be written."""
     from testbed.recording.output_paths import file_stem, output_path
 
-    out = Path(args.out) if args.out else Path("runs") / f"{file_stem(name)}_sweep"
+    given = Path(args.out) if args.out else Path("runs") / f"{file_stem(name)}_sweep"
+    try:
+        out = given.expanduser().resolve(strict=False)
+    except (OSError, RuntimeError, ValueError) as exc:  # a symlink loop, a NUL byte
+        raise InputError("--out", f"cannot write {quoted(str(given))}: {getattr(exc, 'strerror', None) or exc}") from None
     output_path(out / f"{file_stem(name)}.csv")  # probes that a file can be created there (not under a file)
     return out
+
+
+def check_case_traces(out: Path, cases) -> None:
+    """Refuse (InputError naming --out) before anything runs a DIR/caseNNNN.rrd that is there but
+    is not a file (a directory): it would fail only when its case is written."""
+    from testbed.campaign.rows import case_trace
+    from testbed.recording.output_paths import output_path
+
+    for case in cases:
+        path = case_trace(out, case.index)
+        if os.path.lexists(path):  # a new file's folder is probed once, with the table's
+            output_path(path)
 
 
 def run(args) -> int:
@@ -117,6 +136,8 @@ def run(args) -> int:
         name, data, cases = load_cases(args.scenario, args.set)
         out = output_folder(args, name)
         table, done = open_table(out, name, data, cases, args)  # refuses a damaged folder; writes nothing
+        if args.rrd:
+            check_case_traces(out, cases)
         clamped = engine.at_most(len(cases))
         with engine:  # an unreachable scheduler is refused before any file is written
             _load_plugins_in_workers(engine, cases)
@@ -181,7 +202,7 @@ def open_table(out: Path, name: str, data: dict, cases, args):
     there. Writes nothing; a folder the campaign could not finish in is refused (an output
     path of the wrong kind, a damaged table: testbed.campaign.table)."""
     from testbed.campaign.table import CampaignTable, fingerprint, merge_kinds
-    from testbed.campaign.rows import expected_row
+    from testbed.campaign.rows import STATUSES, expected_row, identity_cells
     from testbed.recording.output_paths import file_stem, output_path
 
     for path in summary_files(out):
@@ -192,7 +213,8 @@ def open_table(out: Path, name: str, data: dict, cases, args):
         merge_kinds(columns, expected_row(case, case.prepared["applied"], case.prepared["metrics"],
                                           case.prepared["checks"]))
     identity = {"scenario": name, "set": list(args.set), "cases": len(cases), "fingerprint": fingerprint(data, cases)}
-    table = CampaignTable(out, file_stem(name), columns, identity)
+    table = CampaignTable(out, file_stem(name), columns, identity, {"status": STATUSES},
+                          {case.index: identity_cells(case) for case in cases})
     return table, table.read(args.resume)
 
 
@@ -233,7 +255,7 @@ def _why(row: dict) -> str:
 
 def _rerun_case(args) -> int:
     """`--case N`: case N alone, in this process, its trace written."""
-    from testbed.campaign.rows import run_case
+    from testbed.campaign.rows import case_trace, run_case
     from testbed.recording.output_paths import output_path
 
     with reserved_for_json(args.json):  # a plug-in's prints go to stderr
@@ -241,8 +263,8 @@ def _rerun_case(args) -> int:
         if not 0 <= args.case < spec.count:
             raise InputError("--case", f"must be a case number 0 ... {spec.count - 1}, got {args.case}")
         _, _, (case,) = load_cases(args.scenario, args.set, [args.case])
-        rrd = output_path(output_folder(args, name) / f"case{case.index:04d}.rrd")
-        row = run_case(case, str(rrd))
+        rrd = output_path(case_trace(output_folder(args, name), case.index))
+        row = run_case(case, str(rrd), raises=(WriteFailed,))  # a full disk: one line, exit 1
 
     def report():
         if args.json:

@@ -12,6 +12,7 @@ pass unedited.
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 from testbed.cli.commands import EXIT_OK, command, reported
@@ -149,8 +150,8 @@ def add_parser(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def _target_folder(folder: Path) -> None:
-    """Create `folder`, or accept it if it is an empty folder; refuse anything else."""
+def _target_folder(folder: Path) -> bool:
+    """Create `folder`, or accept it if it is an empty folder; refuse anything else. Whether it was created."""
     try:
         if not folder.exists():
             check_creatable(folder.resolve() / CONTROLLER_FILE, str(folder))
@@ -161,31 +162,46 @@ def _target_folder(folder: Path) -> None:
     if folder.is_dir() and any(folder.iterdir()):
         raise InputError(str(folder), "is not empty; testbed init writes only into a new or empty folder "
                                       "and never overwrites a file")
+    created = not folder.exists()
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InputError(str(folder), f"cannot create it: {exc.strerror or exc}") from None
+    return created
 
 
 def _write_new(path: Path, text: str) -> None:
+    """`text` into the new file `path`, whole or not at all (testbed.recording.atomic_file): a
+    full disk is WriteFailed naming it (exit 1); a file there already is refused, never replaced."""
+    from testbed.recording.atomic_file import atomic_file
+
     try:
-        with path.open("x", encoding="utf-8") as f:  # "x": fails if the file appeared meanwhile
-            f.write(text)
+        with atomic_file(path, overwrite=False) as handle:
+            handle.write(text)
     except FileExistsError:
         raise InputError(str(path), "already exists; testbed init never overwrites a file") from None
-    except OSError as exc:
-        raise InputError(str(path), f"cannot write it: {exc.strerror or exc}") from None
 
 
 def run(args) -> int:
     folder = Path(args.dir)
-    _target_folder(folder)
+    created = _target_folder(folder)
     scenario, controller = folder / SCENARIO_FILE, folder / CONTROLLER_FILE
     for path in (scenario, controller):  # refuse before writing anything
         if path.exists():
             raise InputError(str(path), "already exists; testbed init never overwrites a file")
-    _write_new(controller, CONTROLLER_TEMPLATE)
-    _write_new(scenario, SCENARIO_TEMPLATE.format(scenario_path=scenario.as_posix()))
+    written: list[Path] = []
+    try:
+        for path, text in ((controller, CONTROLLER_TEMPLATE),
+                           (scenario, SCENARIO_TEMPLATE.format(scenario_path=scenario.as_posix()))):
+            _write_new(path, text)
+            written.append(path)
+    except BaseException:  # a template alone is half a project: nothing of this init is left
+        for path in written:
+            path.unlink(missing_ok=True)
+        if created:
+            with contextlib.suppress(OSError):  # the folder itself, and only if empty
+                folder.rmdir()
+        raise
     run_it = f"testbed run {scenario.as_posix()}"
     def report():
         print(f"wrote {scenario} (the experiment) and {controller} (your law \"my.controller\")")

@@ -4,6 +4,7 @@ raises InputError naming the field and the reason (never silently repairs bad in
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -159,7 +160,9 @@ def inertia_matrix(field: str, inertia) -> np.ndarray:
 
 def existing_file(field: str, path) -> bool:
     """Whether `path` names an existing regular file; a name the file system cannot take (too
-    long, a NUL byte) or an empty one is refused rather than raising."""
+    long, a NUL byte), an empty one or one that is not a path at all is refused rather than raising."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError(field, f"must be a file path (str or pathlib.Path), got {type(path).__name__}")
     if not str(path):  # Path("") is the current folder
         raise InputError(field, "is empty; give a file name")
     try:

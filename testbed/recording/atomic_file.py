@@ -26,24 +26,36 @@ def partial_beside(path: Path) -> tuple[int, str]:
     return tempfile.mkstemp(dir=Path(path).parent, prefix=f".{kept}.", suffix=".partial")
 
 
-def publish(partial: str, path: Path) -> None:
-    """Rename the finished `partial` onto `path` with an ordinary file's permissions (0o666 less the umask)."""
+def publish(partial: str, path: Path, overwrite: bool = True) -> None:
+    """Rename the finished `partial` onto `path` with an ordinary file's permissions (0o666 less
+    the umask); with `overwrite` False a file already at `path` is kept (FileExistsError): the
+    partial is hard-linked there, which fails if the name is taken, then removed."""
     mask = os.umask(0)
     os.umask(mask)
     os.chmod(partial, 0o666 & ~mask)
-    os.replace(partial, path)
+    if overwrite:
+        os.replace(partial, path)
+        return
+    try:
+        os.link(partial, path)
+    finally:
+        os.unlink(partial)
 
 
 class atomic_file:
     """`with atomic_file(path) as handle:` a file written under a temporary name beside `path`,
     renamed onto it when the block ends normally and removed when it raises; an OSError while
-    writing it (a full disk) becomes testbed.errors.WriteFailed naming `path`."""
+    writing it (a full disk) becomes testbed.errors.WriteFailed naming `path`. `overwrite=False`:
+    a file that is at `path` when the block ends stays, FileExistsError (see `publish`)."""
 
-    def __init__(self, path: Path, binary: bool = False):
-        self.path, self.binary = Path(path), binary
+    def __init__(self, path: Path, binary: bool = False, overwrite: bool = True):
+        self.path, self.binary, self.overwrite = Path(path), binary, overwrite
 
     def __enter__(self):
-        fd, self.partial = partial_beside(self.path)
+        try:
+            fd, self.partial = partial_beside(self.path)
+        except OSError as exc:  # no room for even an empty file (no inodes left)
+            raise write_failed(self.path, exc) from None
         self.handle = os.fdopen(fd, "wb" if self.binary else "w", **({} if self.binary else {"newline": ""}))
         return self.handle
 
@@ -51,7 +63,10 @@ class atomic_file:
         try:
             self.handle.close()  # may fail too: its last buffer is written now
             if kind is None:
-                publish(self.partial, self.path)
+                publish(self.partial, self.path, self.overwrite)
+        except FileExistsError:  # not a write that failed: the name was taken meanwhile
+            Path(self.partial).unlink(missing_ok=True)
+            raise
         except OSError as exc:
             Path(self.partial).unlink(missing_ok=True)
             raise write_failed(self.path, value if isinstance(value, OSError) else exc) from None

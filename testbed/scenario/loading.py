@@ -227,6 +227,8 @@ def resolve_path(name_or_path: str) -> Path:
 
 def apply_override(data: dict, assignment: str) -> None:
     """Apply one `key.path=value` override in place; the value is parsed as YAML."""
+    if not isinstance(assignment, str):
+        raise InputError("--set", f"expected key.path=value (a string), got {type(assignment).__name__}")
     if "=" not in assignment:
         raise InputError("--set", f"expected key.path=value, got {quoted(assignment)}")
     key, text = assignment.split("=", 1)

@@ -74,17 +74,26 @@ _FLOAT = re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
 _Loader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+0123456789."))
 
 
-def as_loaded(data):
+def as_loaded(data, path: str = "", depth: int = 0):
     """`data` (a mapping built in Python, or read by another YAML reader) with every string that
     this loader would have read as a number made that number, as if it had come from a file:
-    PyYAML's `safe_load` reads `1e-4` (no dot) as the string '1e-4'. Other values as they are."""
+    PyYAML's `safe_load` reads `1e-4` (no dot) as the string '1e-4'. Other values as they are.
+    Nesting deeper than MAX_DEPTH (a mapping that contains itself too) is refused as in a file."""
+    if depth >= MAX_DEPTH:  # the file loader's rule: the top mapping is level 0
+        raise InputError(path or "scenario", f"nested deeper than {MAX_DEPTH} levels "
+                                             "(or a mapping or list that contains itself)")
     if isinstance(data, dict):
-        return {key: as_loaded(value) for key, value in data.items()}
+        return {key: as_loaded(value, _joined(path, key), depth + 1) for key, value in data.items()}
     if isinstance(data, (list, tuple)):
-        return [as_loaded(value) for value in data]
+        return [as_loaded(value, _joined(path, index), depth + 1) for index, value in enumerate(data)]
     if isinstance(data, str) and _FLOAT.match(data):
         return _Loader("").construct_yaml_float(yaml.ScalarNode("tag:yaml.org,2002:float", data))
     return data
+
+
+def _joined(path: str, key) -> str:
+    """The dotted path of item `key` below `path` (cut to its first 80 characters)."""
+    return (f"{path}.{key}" if path else str(key))[:80]
 
 
 def yaml_load(text: str, where: str):
