@@ -11,6 +11,7 @@ Layout (every key optional unless marked; units are in the key names, SI and rad
     pipeline: {sensor|estimator|law|allocator: {type: NAME, ...params}}   (testbed.pipeline)
     reference: {type: NAME, ...}    # an analytic model the truth is compared with
     checks: {METRIC: {max: X} | {min: X}}
+    accuracy: {enabled, step_angle_max_rad, ...}   # the accuracy guard's thresholds (testbed.accuracy.settings)
     sweep: {grid: {PATH: [values]}, dispersions: {PATH: {normal: [mean, sigma]}}, samples, seed}   (testbed.campaign.spec)
 
 `load_scenario(path, overrides)` applies `--set key.path=value` overrides to the raw mapping
@@ -36,6 +37,7 @@ from testbed.scenario.yaml_reading import read_yaml, yaml_load
 from testbed.scenario.schema import param
 from testbed.scenario.shipped_files import SCENARIO_DIR
 from testbed.campaign.spec import load_spec
+from testbed.accuracy.settings import AccuracySettings
 
 
 
@@ -146,6 +148,7 @@ class _RawScenario:
     pipeline: dict[str, Any] = param({})
     reference: dict[str, Any] | None = None
     checks: dict[str, Any] = param({})      # each a CheckLimit, read once its metric is known
+    accuracy: AccuracySettings = field(default_factory=AccuracySettings)
     sweep: dict[str, Any] | None = None     # testbed.campaign.cases expands it; `run` ignores it
 
 
@@ -163,6 +166,7 @@ class Scenario:
     reference: tuple[str, Any] | None       # (reference name, params)
     checks: dict[str, CheckLimit]
     source: str = ""
+    accuracy: AccuracySettings = field(default_factory=AccuracySettings)  # the accuracy guard's thresholds
 
 
 def parse(data: dict, source: str = "") -> Scenario:
@@ -183,7 +187,7 @@ def parse(data: dict, source: str = "") -> Scenario:
     if raw.reference is not None:
         reference = references_registry.load_params(raw.reference, "reference")
     scenario = Scenario(raw.name, raw.description, system_name, model, raw.initial, raw.sim,
-                        stages, reference, {}, source)
+                        stages, reference, {}, source, raw.accuracy)
     # after the scenario exists (its metrics depend on it): first that each check names one of
     # them, then its limits, so that `checks.typo.max` is refused as a metric, not as a limit
     metrics.validate_checks(scenario, raw.checks)
