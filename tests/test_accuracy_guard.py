@@ -47,16 +47,16 @@ def test_a_drifting_run_fails_with_a_reason_naming_dt_and_keeps_its_trace(tmp_pa
     drift = momentum_drift(result)
     assert drift > 1e-6  # the conservation law, computed here, is broken: the guard must say so
     rows = {c["name"]: c for c in result.checks}
-    assert not result.passed and not rows["accuracy:momentum_drift_rel"]["passed"]
-    assert "dt 0.3 s" in rows["accuracy:momentum_drift_rel"]["reason"]
+    assert not result.passed and not rows["accuracy:momentum_drift"]["passed"]
+    assert "dt 0.3 s" in rows["accuracy:momentum_drift"]["reason"]
     # the guard's figure is the run's own momentum_drift_rel: within the trace sampling of the test's
-    assert rows["accuracy:momentum_drift_rel"]["value"] == pytest.approx(drift, rel=0.2)
+    assert rows["accuracy:momentum_drift"]["value"] == pytest.approx(drift, rel=0.2)
     out = tmp_path / "tumble.rrd"
     argv = ["run", "torque_free_tumble", "--out", str(out)] + [a for o in TUMBLE + ["sim.dt_s=0.3", "sim.control_period_s=0.3"]
                                                                for a in ("--set", o)]
     assert main(argv) == 1
     assert out.exists()
-    assert "accuracy:momentum_drift_rel" in capsys.readouterr().out
+    assert "accuracy:momentum_drift" in capsys.readouterr().out
 
 
 def test_a_faithful_step_passes_the_guard():
