@@ -33,7 +33,7 @@ def monitored(scenario, plant) -> dict[str, tuple[str, str, float, str]]:
     tracking = getattr(plant, "tracking_metric", None)
     if tracking is not None:
         rows[tracking] = (CHECK_NAMES[2], "tracking_error_rel_max", guard.tracking_error_rel_max,
-                          f"the actuator servo missed its command by ({tracking})")
+                          f"the actuator servo's {tracking} is")
     return rows
 
 
