@@ -1,0 +1,64 @@
+"""A campaign as shipped against a candidate configuration, side by side: wall time and verdicts.
+
+    .venv/bin/python bench/bench_campaign_speed.py lebedev_spinup_campaign --samples 8 \
+        --candidate sim.dt_s=0.005 model.servo_model=feedforward model.servo_natural_frequency_rad_s=0.3
+
+Runs `testbed campaign NAME --set sweep.samples=N --workers 2` as shipped and with the candidate's
+overrides, alternating (shipped, candidate) `--repeat` times so that load from other processes
+hits both alike, and prints the median wall time of each, their ratio (goal for the flagship's
+campaign: <= 1/3), and every case whose verdict differs, with the checks that differ.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+
+def campaign(name: str, samples: int, overrides: list[str], out: Path) -> tuple[float, dict]:
+    """(wall seconds, rows by case) of one campaign run into `out`."""
+    argv = [sys.executable, "-m", "testbed", "campaign", name, "--workers", "2", "--out", str(out),
+            "--set", f"sweep.samples={samples}"] + [a for o in overrides for a in ("--set", o)]
+    wall0 = time.perf_counter()
+    subprocess.run(argv, check=False, capture_output=True)
+    wall = time.perf_counter() - wall0
+    table = next(out.glob("*.csv"))
+    return wall, {row["case"]: row for row in csv.DictReader(table.open())}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("scenario")
+    parser.add_argument("--samples", type=int, default=8)
+    parser.add_argument("--repeat", type=int, default=1)
+    parser.add_argument("--candidate", nargs="+", required=True, metavar="KEY=VALUE")
+    args = parser.parse_args()
+    walls = {"shipped": [], "candidate": []}
+    rows = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for k in range(args.repeat):
+            for kind, overrides in (("shipped", []), ("candidate", args.candidate)):
+                wall, rows[kind] = campaign(args.scenario, args.samples, overrides, Path(tmp) / f"{kind}{k}")
+                walls[kind].append(wall)
+    shipped, candidate = statistics.median(walls["shipped"]), statistics.median(walls["candidate"])
+    print(f"{args.scenario}, {len(rows['shipped'])} cases on 2 workers, median of {args.repeat} alternating runs")
+    print(f"  shipped   {shipped:7.1f} s wall")
+    print(f"  candidate {candidate:7.1f} s wall  ({' '.join(args.candidate)})")
+    print(f"  candidate / shipped {candidate / shipped:.3f}  (goal <= 0.333)")
+    changed = [case for case in rows["shipped"] if rows["shipped"][case]["passed"] != rows["candidate"][case]["passed"]]
+    print(f"  verdicts that differ: {len(changed)}")
+    for case in changed:
+        a, b = rows["shipped"][case], rows["candidate"][case]
+        checks = [k for k in a.keys() | b.keys() if k.startswith("check:") and a.get(k, "") != b.get(k, "")]
+        why = ", ".join(f"{k[6:]} {a.get(k) or '-'} -> {b.get(k) or '-'}" for k in sorted(checks))
+        print(f"  case {case}: passed {a['passed']} -> {b['passed']}: {why}")
+
+
+if __name__ == "__main__":
+    main()
