@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from testbed.steering import LAW_OPTIONS, STEERING_LAWS
+from testbed.steering.planned_path import plan_gimbal_path
 from testbed.steering.stage import STAGE_RCOND
 from testbed.systems.cmg_rhombus.cluster import ClusterGeometry, rhombus_axes
 from testbed.systems.cmg_rhombus.momentum_gauge import fibonacci_sphere
@@ -44,7 +45,9 @@ LOWEST_H, HIGHEST_FRACTION = 0.2, 0.95
 FRACTIONS = (0.3, 0.5, 0.7, 0.8, 0.9)
 BINS = (0.0, 0.3, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
 EXACT, CLEAR, NEAR = 1e-3, 0.05, 0.1
-LAWS = ("pinv", "sr", "gsr", "minimax", "minimax_avoid", "osr", "sda", "pga")
+LAWS = ("pinv", "sr", "gsr", "minimax", "minimax_avoid", "osr", "sda", "pga", "planned")
+PLANNED = "planned"  # the plan of testbed.steering.planned_path, tracked by pga's null motion
+PRESLEW_S = 5.0  # the rest before the slew (reorient_near_singular's start_s) the planned law may reconfigure in
 
 
 def geometry() -> ClusterGeometry:
@@ -82,14 +85,37 @@ def wanted_momentum(case: dict, t) -> np.ndarray:
     return (case["fraction"] * case["radius"] * 4 * tau * (1 - tau))[..., None] * np.asarray(case["direction"])
 
 
+def wanted_momentum_rate(case: dict, t) -> np.ndarray:
+    """H_w'(t) = r d 4 (1 - 2 tau) / T [h/s] inside the slew."""
+    tau = float(np.clip(t / DURATION_S, 0.0, 1.0))
+    return case["fraction"] * case["radius"] * 4 * (1 - 2 * tau) / DURATION_S * np.asarray(case["direction"])
+
+
 def fly(law: str, case: dict, geo: ClusterGeometry | None = None, duration_s: float = DURATION_S,
         dt: float = DT_S) -> dict:
-    """One law on one case (module doc): its figures."""
+    """One law on one case (module doc): its figures. `planned` plans the path before the slew
+    (planned_path.plan_gimbal_path) and tracks it with pga's null motion towards the plan's next
+    angles (gain 1/dt); a refused plan is not flown and counts as not exact."""
     geo = geo or geometry()
-    steer = STEERING_LAWS[law]
-    options = set(LAW_OPTIONS[law])
     rate_max = np.radians(RATE_MAX_DEG_S)
     beta = np.radians(START_SETS_DEG[case["start"]])
+    plan, reconfiguration = None, None
+    if law == PLANNED:
+        plan = plan_gimbal_path(geo.unit_jacobian, beta, lambda t: wanted_momentum_rate(case, t), DURATION_S,
+                                rate_max)
+        if plan is None:
+            return {"law": law, "fraction": case["fraction"], "peak_h": case["fraction"] * case["radius"],
+                    "torque_error_rel": np.nan, "min_singularity_measure": np.nan, "peak_gimbal_rate_deg_s": 0.0,
+                    "final_momentum_error_h": np.nan, "near_singular_s": 0.0, "exact": False, "refused": True}
+        # the reconfiguration before the slew: null motion at rest within beta'max over PRESLEW_S
+        if np.abs(plan.angles[0] - beta).max() > rate_max * PRESLEW_S:
+            plan = None
+            return {"law": law, "fraction": case["fraction"], "peak_h": case["fraction"] * case["radius"],
+                    "torque_error_rel": np.nan, "min_singularity_measure": np.nan, "peak_gimbal_rate_deg_s": 0.0,
+                    "final_momentum_error_h": np.nan, "near_singular_s": 0.0, "exact": False, "refused": True}
+        beta = plan.angles[0].copy()
+    steer = STEERING_LAWS["pga" if plan else law]
+    options = set(LAW_OPTIONS["pga" if plan else law])
     start, start_jacobian = beta.copy(), geo.unit_jacobian(beta)
     fixed = {"rcond": STAGE_RCOND} if "rcond" in options else {}
     if "preferred_gimbal_angles" in options:
@@ -111,6 +137,8 @@ def fly(law: str, case: dict, geo: ClusterGeometry | None = None, duration_s: fl
             inputs["column_derivative"] = geo.unit_jacobian_derivative(beta)
         if "gimbal_angle" in options:
             inputs["gimbal_angle"] = beta
+        if plan is not None:
+            inputs.update(preferred_gimbal_angles=plan.at(times[k + 1]), null_gain_per_s=1.0 / dt)
         if "peak_rate_so_far" in options:
             inputs["peak_rate_so_far"] = peak
         result = steer(J, 1.0, b, rate_max, **inputs)
@@ -125,7 +153,7 @@ def fly(law: str, case: dict, geo: ClusterGeometry | None = None, duration_s: fl
             "torque_error_rel": torque_error, "min_singularity_measure": lowest,
             "peak_gimbal_rate_deg_s": float(np.degrees(peak)),
             "final_momentum_error_h": float(np.linalg.norm(geo.momentum(beta) - wanted[-1])),
-            "near_singular_s": dt * near, "exact": bool(torque_error <= EXACT and lowest >= CLEAR)}
+            "near_singular_s": dt * near, "exact": bool(torque_error <= EXACT and lowest >= CLEAR), "refused": False}
 
 
 def bin_of(fraction: float) -> int:
@@ -171,7 +199,7 @@ def main() -> None:
     parser.add_argument("--csv", type=Path, default=None)
     args = parser.parse_args()
     laws = [law for law in args.laws.split(",") if law]
-    unknown = [law for law in laws if law not in STEERING_LAWS]
+    unknown = [law for law in laws if law not in STEERING_LAWS and law != PLANNED]
     if unknown:
         parser.error(f"unknown law {unknown[0]!r}; choose from {', '.join(STEERING_LAWS)}")
     geo = geometry()

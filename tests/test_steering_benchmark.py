@@ -54,3 +54,53 @@ def test_every_law_flies_the_small_sample(bench):
     text = bench.table(rows, bench.LAWS)
     for law in bench.LAWS:
         assert f"{law:<14}usable up to f = " in text
+
+
+def test_null_vector_is_normal_to_the_columns_with_the_cauchy_binet_length():
+    from testbed.steering.planned_path import null_vector
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        J = rng.normal(size=(3, 4))
+        n = null_vector(J)
+        assert np.abs(J @ n).max() < 1e-12 * np.abs(J).max() ** 3
+        assert np.linalg.norm(n) == pytest.approx(np.sqrt(np.linalg.det(J @ J.T)), rel=1e-10)
+
+
+def test_reconfiguration_follows_the_rhombus_zero_momentum_line(bench):
+    # By hand: through (45, -45, -45, 45) deg the rhombus's zero-momentum fibre is the straight line
+    # beta0 + s (1, -1, -1, 1) / 2 (units 1, 3 and 2, 4 cancel pairwise along it): moving s of arc along
+    # it keeps H = 0 and lands on that line (RK2 on a straight line: round-off only).
+    from testbed.steering.planned_path import reconfigured
+    geo = bench.geometry()
+    start = np.radians(bench.START_SETS_DEG[0])
+    moved = reconfigured(geo.unit_jacobian, start, 0.8, 0.5)
+    direction = np.array([1.0, -1.0, -1.0, 1.0]) / 2
+    assert np.abs(np.abs((moved - start) @ direction) - 0.8) < 1e-6
+    assert np.linalg.norm(moved - start - ((moved - start) @ direction) * direction) < 1e-6
+    assert np.abs(geo.momentum(moved)).max() < 1e-9
+
+
+# Case 55 of the default benchmark (seed 29): f = 0.94 of the envelope, start set 0.
+OUTER_CASE = {"direction": [-0.261625217788062, -0.4929754104897959, 0.8297755660838455],
+              "fraction": 0.9436080074512276, "start": 0, "radius": 3.4210211900362126}
+
+
+def test_the_planned_path_flies_an_outer_band_slew_that_pinv_cannot(bench):
+    # pinv's path comes within sqrt det = 0.17 of a singular set, where it asks for more than 30 deg/s
+    # and the rate limit scales the torque down; the planned path (a start moved along its fibre
+    # before the slew) keeps exact torque and ends at the analytic H_w(T) = 0.
+    pinv = bench.fly("pinv", OUTER_CASE)
+    planned = bench.fly("planned", OUTER_CASE)
+    assert not pinv["exact"] and pinv["torque_error_rel"] > 1e-3
+    assert planned["exact"] and not planned["refused"] and planned["min_singularity_measure"] >= 0.05
+    assert planned["final_momentum_error_h"] < 1e-3
+
+
+def test_the_planner_refuses_a_program_beyond_the_envelope(bench):
+    # 1.05 of the envelope's radius along d: no gimbal state holds the peak (the envelope is the
+    # boundary of the momenta the cluster holds, momentum_gauge.py), so no path exists.
+    from testbed.steering.planned_path import plan_gimbal_path
+    geo, case = bench.geometry(), dict(OUTER_CASE, fraction=1.05)
+    start = np.radians(bench.START_SETS_DEG[0])
+    assert plan_gimbal_path(geo.unit_jacobian, start, lambda t: bench.wanted_momentum_rate(case, t),
+                            bench.DURATION_S, np.radians(bench.RATE_MAX_DEG_S), max_evaluations=40) is None
