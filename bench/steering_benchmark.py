@@ -161,9 +161,10 @@ def bin_of(fraction: float) -> int:
 
 
 def table(rows: list[dict], laws) -> str:
-    """Per law and bin of f: exact share, peak rate (max), final error (max), near-singular s (mean)."""
+    """Per law and bin of f: exact share, peak rate (max), final error (max), near-singular s (mean),
+    plans refused (planned only)."""
     lines = [f"{'law':<14}{'bin of f':<12}{'n':>4}{'exact %':>9}{'peak deg/s':>12}{'final |dH|/h':>14}"
-             f"{'near s':>8}"]
+             f"{'near s':>8}{'refused':>9}"]
     for law in laws:
         mine = [r for r in rows if r["law"] == law]
         for i in range(len(BINS) - 1):
@@ -173,8 +174,9 @@ def table(rows: list[dict], laws) -> str:
             exact = 100.0 * np.mean([r["exact"] for r in cell])
             lines.append(f"{law:<14}{f'{BINS[i]:.2f}-{BINS[i + 1]:.2f}':<12}{len(cell):>4}{exact:>9.0f}"
                          f"{max(r['peak_gimbal_rate_deg_s'] for r in cell):>12.1f}"
-                         f"{max(r['final_momentum_error_h'] for r in cell):>14.2e}"
-                         f"{np.mean([r['near_singular_s'] for r in cell]):>8.1f}")
+                         f"{np.nanmax([r['final_momentum_error_h'] for r in cell] + [0.0]):>14.2e}"
+                         f"{np.mean([r['near_singular_s'] for r in cell]):>8.1f}"
+                         f"{sum(r['refused'] for r in cell):>9}")
         lines.append(f"{law:<14}usable up to f = {usable_fraction(rows, law):.2f} of the envelope")
     return "\n".join(lines)
 

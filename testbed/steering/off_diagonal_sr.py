@@ -37,7 +37,8 @@ def off_diagonal_weights(damping: float, weight: float, gimbals: int) -> np.ndar
 def osr_steering(J, h, Hdot, beta_rate_max, *, t: float = 0.0, lambda0: float = 0.01, mu: float = 10.0,
                  epsilon0: float = 0.1, omega: float = 1.0, weight: float = 1.0, rcond: float = DEFAULT_RCOND,
                  rate_bounds=None) -> SteeringResult:
-    """Wie's off-diagonal SR rates at time t [s] (module doc, Wie 2005 eq. (25)-(27)), rate-limited.
+    """Wie's off-diagonal SR rates at time t [s] (module doc, Wie 2005 eq. (25)-(27)), rate-limited;
+    options: lambda0 = 0.01, mu = 10, epsilon0 = 0.1 (< 0.5), omega = 1 rad/s, weight = 1 (> lambda0), rcond.
 
     The damping never vanishes, so J W J^T + lambda E is invertible at any rank (rcond only sets the
     reported rank). rate_bounds: optional per-gimbal (lo, hi) (rate_limit.apply_rate_bounds).

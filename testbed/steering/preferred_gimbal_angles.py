@@ -25,8 +25,10 @@ from testbed.steering.validation import checked_problem, checked_rate_bounds
 
 def pga_steering(J, h, Hdot, beta_rate_max, *, gimbal_angle=None, preferred_gimbal_angles=None,
                  null_gain_per_s: float = 0.5, rcond: float = DEFAULT_RCOND, rate_bounds=None) -> SteeringResult:
-    """Pseudo-inverse rates plus Vadali's null motion towards the preferred angles (module doc),
-    rate-limited (eq. 4). Without angles (or with k = 0) it is pinv_steering."""
+    """Pseudo-inverse rates plus Vadali's null motion towards the preferred (starting) angles (module
+    doc), rate-limited (eq. 4); options: null_gain_per_s = 0.5 (k [1/s]), rcond.
+
+    Without angles (or with k = 0) it is pinv_steering."""
     rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
     gain = number_in("steering.null_gain_per_s", null_gain_per_s, 0.0, math.inf, high_open=True)
     rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)

@@ -37,8 +37,10 @@ def sda_gains(s: np.ndarray, lambda0: float, mu: float, rcond: float) -> np.ndar
 
 def sda_steering(J, h, Hdot, beta_rate_max, *, lambda0: float = 0.01, mu: float = 10.0,
                  rcond: float = DEFAULT_RCOND, rate_bounds=None) -> SteeringResult:
-    """Singular-direction-avoidance rates (module doc), rate-limited (eq. 4). rate_bounds: optional
-    per-gimbal (lo, hi) (rate_limit.apply_rate_bounds)."""
+    """Ford and Hall's singular-direction-avoidance rates (module doc), rate-limited (eq. 4); options:
+    lambda0 = 0.01, mu = 10 (lambda = lambda0 exp(-mu s_3^2)), rcond.
+
+    rate_bounds: optional per-gimbal (lo, hi) (rate_limit.apply_rate_bounds)."""
     rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
     lambda0 = number_in("steering.lambda0", lambda0, 0.0, math.inf, high_open=True)
     mu = number_in("steering.mu", mu, 0.0, math.inf, high_open=True)

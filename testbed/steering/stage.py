@@ -4,7 +4,7 @@ The cluster must deliver H' = -(M + w x H) (SEEDS §004 eq. 14, 16, body frame) 
 h J(b) b' = H' (eq. 17), or H' = -M for a law that compensates w x (I w + H) itself
 (testbed.attitude_laws.momentum_input: then `torque_delivered` is -H' too); J, h and H are read from the compiled model (ClusterGeometry) at
 the measured gimbal angles and rotor speeds. Each law of testbed.steering is a stage type:
-`pinv`, `sr`, `gsr`, `minimax_lp`, `minimax`, `minimax_avoid`. When the best achievable
+`pinv`, `sr`, `gsr`, `minimax_lp`, `minimax`, `minimax_avoid`, `osr`, `sda`, `pga`. When the best achievable
 max |b'_i| exceeds b'max the demand is scaled down, keeping its direction; `scale` records the
 factor, `torque_delivered` the torque the command produces on the bus, `momentum` the H it was
 computed with (the rotors' spin momentum H(beta, Omega) the encoders and rotor tachometers give),
@@ -14,7 +14,7 @@ gimbal tachometers' `gimbal_rate` and the description the gimbal inertias) and `
 status flags as the sum of their codes (testbed.steering.result.STATUS_CODES: 1 rate_limited,
 2 rank_deficient, 4 lp_failed, 8 avoidance_limited; 0 ok). What a law needs at each step beyond
 J, h and H' (testbed.steering.STEP_INPUTS) comes from the clock and the cluster description:
-`t` (gsr); dJ_i/dbeta_i (minimax_avoid, `unit_jacobian_derivative` of the description), the
+`t` (gsr, osr); dJ_i/dbeta_i (minimax_avoid, `unit_jacobian_derivative` of the description), the
 measured angles, the angles at t = 0 and J there, and the peak rate commanded so far
 (minimax_avoid's pull back to the start's zero-momentum family).
 
