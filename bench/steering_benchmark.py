@@ -99,17 +99,12 @@ def fly(law: str, case: dict, geo: ClusterGeometry | None = None, duration_s: fl
     geo = geo or geometry()
     rate_max = np.radians(RATE_MAX_DEG_S)
     beta = np.radians(START_SETS_DEG[case["start"]])
-    plan, reconfiguration = None, None
+    plan = None
     if law == PLANNED:
         plan = plan_gimbal_path(geo.unit_jacobian, beta, lambda t: wanted_momentum_rate(case, t), DURATION_S,
                                 rate_max)
-        if plan is None:
-            return {"law": law, "fraction": case["fraction"], "peak_h": case["fraction"] * case["radius"],
-                    "torque_error_rel": np.nan, "min_singularity_measure": np.nan, "peak_gimbal_rate_deg_s": 0.0,
-                    "final_momentum_error_h": np.nan, "near_singular_s": 0.0, "exact": False, "refused": True}
-        # the reconfiguration before the slew: null motion at rest within beta'max over PRESLEW_S
-        if np.abs(plan.angles[0] - beta).max() > rate_max * PRESLEW_S:
-            plan = None
+        # refused, or its reconfiguration before the slew (null motion at rest) takes more than PRESLEW_S
+        if plan is None or np.abs(plan.angles[0] - beta).max() > rate_max * PRESLEW_S:
             return {"law": law, "fraction": case["fraction"], "peak_h": case["fraction"] * case["radius"],
                     "torque_error_rel": np.nan, "min_singularity_measure": np.nan, "peak_gimbal_rate_deg_s": 0.0,
                     "final_momentum_error_h": np.nan, "near_singular_s": 0.0, "exact": False, "refused": True}

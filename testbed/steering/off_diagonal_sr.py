@@ -20,10 +20,10 @@ import math
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.math.validation import number_in, positive_number
+from testbed.math.validation import positive_number
 from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd
 from testbed.steering.result import SteeringResult, limited_result
-from testbed.steering.sr_inverse import wie_damping, wie_dither_matrix
+from testbed.steering.sr_inverse import checked_wie_options, wie_damping, wie_dither_matrix
 from testbed.steering.validation import checked_problem, checked_rate_bounds
 
 PHASES = (0.0, math.pi / 2, math.pi)
@@ -44,13 +44,8 @@ def osr_steering(J, h, Hdot, beta_rate_max, *, t: float = 0.0, lambda0: float = 
     reported rank). rate_bounds: optional per-gimbal (lo, hi) (rate_limit.apply_rate_bounds).
     """
     rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
-    t = number_in("steering.t", t, -math.inf, math.inf, low_open=True, high_open=True)
-    lambda0 = positive_number("steering.lambda0", lambda0, allow_inf=False)
-    mu = number_in("steering.mu", mu, 0.0, math.inf, high_open=True)
-    epsilon0 = number_in("steering.epsilon0", epsilon0, 0.0, 0.5, high_open=True)
-    omega = number_in("steering.omega", omega, -math.inf, math.inf, low_open=True, high_open=True)
+    t, lambda0, mu, epsilon0, omega, rcond = checked_wie_options(t, lambda0, mu, epsilon0, omega, rcond)
     weight = positive_number("steering.weight", weight, allow_inf=False)
-    rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
     if weight <= lambda0:
         raise InputError("steering.weight", f"must exceed lambda0 = {lambda0:g} (W positive definite)")
     bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max)
