@@ -17,10 +17,10 @@ N Fibonacci directions x every start set x FRACTIONS. Per law and bin of f: the 
 exact torque (max |h J beta' - b| <= 1e-3 of the peak |b|) and sqrt(det J J^T) >= 0.05 throughout,
 the peak gimbal rate, the final momentum error |H(beta_T)|/h, and the seconds with sqrt det < 0.1.
 The usable fraction of the envelope of a law is the upper edge of the largest bin (and all below)
-where it reaches 95 %.
+where it reaches 95 %. It prints the table and writes the exact shares as bar charts (`--rrd`).
 
     .venv/bin/python bench/steering_benchmark.py [--slews 200] [--seed 29] [--sweep 0] [--laws pinv,...]
-                                                 [--csv runs/steering_benchmark.csv]
+                                                 [--csv runs/steering_benchmark.csv] [--rrd runs/steering_benchmark.rrd]
 """
 
 from __future__ import annotations
@@ -179,12 +179,37 @@ def table(rows: list[dict], laws) -> str:
 def usable_fraction(rows: list[dict], law: str, share: float = 0.95) -> float:
     """Upper edge of the largest bin such that it and every bin below it reach `share` exact."""
     edge = BINS[0]
-    for i in range(len(BINS) - 1):
-        cell = [r["exact"] for r in rows if r["law"] == law and bin_of(r["fraction"]) == i]
-        if cell and np.mean(cell) < share:
+    for i, exact in enumerate(exact_shares(rows, law)):
+        if exact < 100.0 * share:  # an empty bin (nan) does not stop the count
             break
         edge = BINS[i + 1]
     return edge
+
+
+def exact_shares(rows: list[dict], law: str) -> np.ndarray:
+    """The exact share [%] of `law` in each bin of f (nan for an empty bin)."""
+    shares = []
+    for i in range(len(BINS) - 1):
+        cell = [r["exact"] for r in rows if r["law"] == law and bin_of(r["fraction"]) == i]
+        shares.append(100.0 * np.mean(cell) if cell else np.nan)
+    return np.array(shares)
+
+
+def write_plot(path: Path, rows: list[dict], laws) -> Path:
+    """An .rrd with one bar chart per law: the exact share [%] per bin of f (abscissa: bin centres)."""
+    import rerun as rr
+    import rerun.blueprint as rrb
+
+    from testbed.recording.trace import recording_to
+
+    centres = (np.array(BINS[:-1]) + np.array(BINS[1:])) / 2
+    with recording_to(path, "steering-benchmark") as rec:
+        for law in laws:
+            rec.log(f"exact_share/{law}", rr.BarChart(np.nan_to_num(exact_shares(rows, law)), abscissa=centres,
+                                                      widths=np.diff(BINS)), static=True)
+        rec.send_blueprint(rrb.Blueprint(rrb.Grid(*[rrb.BarChartView(origin=f"exact_share/{law}",
+                                                                     name=f"{law}: exact % per f") for law in laws])))
+    return path
 
 
 def main() -> None:
@@ -194,6 +219,7 @@ def main() -> None:
     parser.add_argument("--sweep", type=int, default=0, help="Fibonacci directions of the Valk-style grid")
     parser.add_argument("--laws", default=",".join(LAWS))
     parser.add_argument("--csv", type=Path, default=None)
+    parser.add_argument("--rrd", type=Path, default=Path("runs/steering_benchmark.rrd"), help="the plot")
     args = parser.parse_args()
     laws = [law for law in args.laws.split(",") if law]
     unknown = [law for law in laws if law not in STEERING_LAWS and law != PLANNED]
@@ -202,6 +228,7 @@ def main() -> None:
     geo = geometry()
     rows = [fly(law, case, geo) for case in cases(args.slews, args.seed, args.sweep) for law in laws]
     print(table(rows, laws))
+    print(f"plot: {write_plot(args.rrd, rows, laws)}")
     if args.csv:
         args.csv.parent.mkdir(parents=True, exist_ok=True)
         with args.csv.open("w", newline="") as f:

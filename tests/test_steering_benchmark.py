@@ -40,7 +40,7 @@ def test_cases_are_reproducible_and_within_the_stated_range(bench):
     assert np.linalg.norm(peak) == pytest.approx(cases[0]["fraction"] * cases[0]["radius"], rel=1e-12)
 
 
-def test_every_law_flies_the_small_sample(bench):
+def test_every_law_flies_the_small_sample(bench, tmp_path):
     # Three slews, every law. A case counted exact has kept the torque within 1e-3 of the demand, so
     # it ends at the path's analytic end H_w(T) = 0 up to the last step's second-order term
     # (|beta'|^2 dt^2 / 2 <= 1e-3 h at 30 deg/s, dt = 0.05 s).
@@ -54,6 +54,9 @@ def test_every_law_flies_the_small_sample(bench):
     text = bench.table(rows, bench.LAWS)
     for law in bench.LAWS:
         assert f"{law:<14}usable up to f = " in text
+    shares = bench.exact_shares(rows, "pinv")
+    assert np.count_nonzero(~np.isnan(shares)) == len({bench.bin_of(c["fraction"]) for c in cases})  # the bins it filled
+    assert bench.write_plot(tmp_path / "plot.rrd", rows, bench.LAWS).stat().st_size > 0
 
 
 def test_null_vector_is_normal_to_the_columns_with_the_cauchy_binet_length():

@@ -227,12 +227,15 @@ class SteeringAllocator:
             s["min_angle_margin"] = min(s["min_angle_margin"], float(np.min(margin)))
         s["steps"] += 1
 
-    def _classified(self, measure, jacobian, beta, momentum):
+    def _classified(self, measure, jacobian, beta, momentum, failed=()):
         """(kind code, singular direction u) by Bedrossian's test when the measure is below
-        `classify_below` (singularity_type.py), else (NOT_SINGULAR, zeros)."""
+        `classify_below` (singularity_type.py), else (NOT_SINGULAR, zeros); a failed unit's column
+        is zero in J and in dJ/dbeta alike."""
         if not self.classifies or measure >= self.classify_below:
             return np.array([float(NOT_SINGULAR)]), np.zeros(3)
-        kind = singularity_type(jacobian, self.geometry.unit_jacobian_derivative(beta), momentum)
+        derivative = self.geometry.unit_jacobian_derivative(beta)
+        derivative[:, list(failed)] = 0.0
+        kind = singularity_type(jacobian, derivative, momentum)
         return np.array([float(kind.kind)]), kind.direction
 
     def allocate(self, t, demand, estimate, actuators):
@@ -277,7 +280,7 @@ class SteeringAllocator:
                    "rank": np.array([float(result.rank)]),
                    "status": np.array([float(status_code(result.status))])}
         command["singularity_type"], command["singular_direction"] = self._classified(
-            result.singularity_measure, jacobian, beta, momentum)
+            result.singularity_measure, jacobian, beta, momentum, failed)
         if self.isolation is not None:
             command["fault_residual"] = residual
             command["failed_units"] = (~self.isolation.healthy).astype(float)
