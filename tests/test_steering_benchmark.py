@@ -76,11 +76,13 @@ def test_reconfiguration_follows_the_rhombus_zero_momentum_line(bench):
     from testbed.steering.planned_path import reconfigured
     geo = bench.geometry()
     start = np.radians(bench.START_SETS_DEG[0])
-    moved = reconfigured(geo.unit_jacobian, start, 0.8, 0.5)
+    moved, on_the_way = reconfigured(geo.unit_jacobian, start, 0.8)
     direction = np.array([1.0, -1.0, -1.0, 1.0]) / 2
     assert np.abs(np.abs((moved - start) @ direction) - 0.8) < 1e-6
     assert np.linalg.norm(moved - start - ((moved - start) @ direction) * direction) < 1e-6
-    assert np.abs(geo.momentum(moved)).max() < 1e-9
+    assert np.abs(geo.momentum(moved)).max() < 1e-9 and on_the_way.min() > 0.4
+    # 90 deg of arc along the line lands on a singular set (units pairwise antiparallel): refused
+    assert reconfigured(geo.unit_jacobian, start, np.pi / 2 + 0.01)[0] is None
 
 
 # Case 55 of the default benchmark (seed 29): f = 0.94 of the envelope, start set 0.

@@ -17,7 +17,7 @@ grid of `offsets` with c = 0, then (s, c) by scipy.optimize.minimize (Powell) to
     sum_k dt [ (max(0, m_target - m_k) / m_target)^2 + (max(0, max_i |beta'_i| / beta'max - 1))^2 ]
         + 1e-4 sum_j (c_j / beta'max)^2,                                                     (2)
 
-m = sqrt(det(J J^T)) along the path (RK2 steps of `plan_dt`). The plan is refused (None) when its
+m = sqrt(det(J J^T)) along the path (RK2 steps of `plan_dt`) and along the reconfiguration. The plan is refused (None) when its
 smallest m is below `measure_floor` or its peak rate above beta'max: no path of the family (1) flies
 the program within the limits, and the caller must say so before the slew.
 """
@@ -84,24 +84,29 @@ def integrate_path(jacobian, start, momentum_rate, duration: float, null_rates, 
     return times, np.array(angles), np.array(measures), peak
 
 
-def reconfigured(jacobian, start, offset: float, plan_dt: float) -> np.ndarray:
-    """The start angles moved by `offset` [rad] of arc along their null-motion fibre (module doc)."""
+def reconfigured(jacobian, start, offset: float) -> tuple[np.ndarray | None, np.ndarray]:
+    """The start angles moved by `offset` [rad] of arc along their null-motion fibre (module doc),
+    and sqrt(det(J J^T)) along the way; None for the angles when the way meets a singular set."""
     if offset == 0.0:
-        return np.array(start, float)
+        return np.array(start, float), np.array([float(np.linalg.norm(null_vector(jacobian(start))))])
     steps = max(1, int(np.ceil(abs(offset) / 0.05)))  # RK2 steps of at most 0.05 rad
-    _, angles, _, _ = integrate_path(jacobian, start, lambda t: np.zeros(3), 1.0, [offset, offset], 1.0 / steps)
-    return angles[-1]
+    times, angles, measures, _ = integrate_path(jacobian, start, lambda t: np.zeros(3), 1.0, [offset, offset],
+                                                1.0 / steps)
+    return (angles[-1] if times[-1] >= 1.0 - 1e-9 else None), measures
 
 
 def plan_gimbal_path(jacobian, start, momentum_rate, duration: float, rate_max: float, *, knots: int = 4,
                      plan_dt: float = 0.5, m_target: float = M_TARGET, measure_floor: float = MEASURE_FLOOR,
-                     offsets=np.linspace(-np.pi, np.pi, 25), max_evaluations: int = 150) -> PlannedPath | None:
+                     offsets=np.linspace(-1.5, 1.5, 31), max_evaluations: int = 150) -> PlannedPath | None:
     """The plan of the module doc for the unit-h Jacobian `jacobian(beta)`, the start angles and the
     program's H_w'(t)/h (`momentum_rate(t)`, 3-vector) over [0, duration]; None when refused.
     The plan's first angles are the reconfigured start (PlannedPath.angles[0])."""
     def cost(values, full=False):
-        first = reconfigured(jacobian, start, float(values[0]), plan_dt)
+        first, on_the_way = reconfigured(jacobian, start, float(values[0]))
+        if first is None:  # the reconfiguration meets a singular set
+            return (np.zeros(1), np.array([start]), np.zeros(1), np.inf) if full else 1e3
         times, angles, measures, peak = integrate_path(jacobian, first, momentum_rate, duration, values[1:], plan_dt)
+        measures = np.concatenate([on_the_way, measures])
         if full:
             return times, angles, measures, peak
         lost = duration - times[len(angles) - 1]  # time left after an integration cut at a singular set
