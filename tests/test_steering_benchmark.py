@@ -81,19 +81,20 @@ def test_reconfiguration_follows_the_rhombus_zero_momentum_line(bench):
     assert np.abs(np.abs((moved - start) @ direction) - 0.8) < 1e-6
     assert np.linalg.norm(moved - start - ((moved - start) @ direction) * direction) < 1e-6
     assert np.abs(geo.momentum(moved)).max() < 1e-9 and on_the_way.min() > 0.4
-    # 90 deg of arc along the line lands on a singular set (units pairwise antiparallel): refused
-    assert reconfigured(geo.unit_jacobian, start, np.pi / 2 + 0.01)[0] is None
+    # 90 deg of arc along the line is a singular set (units pairwise antiparallel): the way past it
+    # dips below the plan's floor 0.05 (its samples are 0.025 rad apart, |dm/ds| ~ 1.9 there)
+    assert reconfigured(geo.unit_jacobian, start, np.pi / 2 + 0.01)[1].min() < 0.05
 
 
-# Case 55 of the default benchmark (seed 29): f = 0.94 of the envelope, start set 0.
-OUTER_CASE = {"direction": [-0.261625217788062, -0.4929754104897959, 0.8297755660838455],
-              "fraction": 0.9436080074512276, "start": 0, "radius": 3.4210211900362126}
+# Case 203 of the default benchmark (seed 29, --sweep 12): f = 0.80 of the envelope, start set 0.
+OUTER_CASE = {"direction": [0.14482407675874578, 0.37248920657275325, 0.9166666666666666],
+              "fraction": 0.8, "start": 0, "radius": 3.7680441395948114}
 
 
 def test_the_planned_path_flies_an_outer_band_slew_that_pinv_cannot(bench):
-    # pinv's path comes within sqrt det = 0.17 of a singular set, where it asks for more than 30 deg/s
-    # and the rate limit scales the torque down; the planned path (a start moved along its fibre
-    # before the slew) keeps exact torque and ends at the analytic H_w(T) = 0.
+    # pinv's path asks for more than 30 deg/s near a singular set and the rate limit scales the
+    # torque down; the planned path (a start moved along its fibre before the slew, null motion
+    # shaped in flight) keeps exact torque and ends at the analytic H_w(T) = 0.
     pinv = bench.fly("pinv", OUTER_CASE)
     planned = bench.fly("planned", OUTER_CASE)
     assert not pinv["exact"] and pinv["torque_error_rel"] > 1e-3

@@ -86,7 +86,8 @@ def integrate_path(jacobian, start, momentum_rate, duration: float, null_rates, 
 
 def reconfigured(jacobian, start, offset: float) -> tuple[np.ndarray | None, np.ndarray]:
     """The start angles moved by `offset` [rad] of arc along their null-motion fibre (module doc),
-    and sqrt(det(J J^T)) along the way; None for the angles when the way meets a singular set."""
+    and sqrt(det(J J^T)) along the way (RK2 samples 0.025 rad apart); None for the angles when the
+    integration stops at sqrt det < 1e-6. The plan refuses a way whose samples fall below its floor."""
     if offset == 0.0:
         return np.array(start, float), np.array([float(np.linalg.norm(null_vector(jacobian(start))))])
     steps = max(1, int(np.ceil(abs(offset) / 0.05)))  # RK2 steps of at most 0.05 rad
