@@ -100,6 +100,11 @@ class Slew:
         self.statistics = {"target_quat": slew_target(params, ctx.initial.quat, ctx.end_time),
                            "final_program_quat": self.program.attitude(ctx.end_time - self.start)}
 
+    @classmethod
+    def design(cls, params: SlewParams) -> dict:
+        # the program's parameters, for an allocator that plans its actuators' path before the slew
+        return {"slew_program": params}
+
     def applied(self) -> dict:
         """Axis, angle and duration of the program this law tracks, read from the program itself
         (its start and target attitudes), in the scenario's keys (testbed.campaign.applied_values)."""

@@ -16,11 +16,14 @@ deliver the least-squares projection of H' onto range(J); SR/GSR damp instead.
     minimax     min-max, exact closed form (~us)               minimax_exact.py
     minimax_avoid  min-max under a barrier on sqrt(det(J J^T)),  minimax_avoid.py
                    pulled back to the start's zero-momentum family
+    osr         Wie's off-diagonal SR inverse (2005)           off_diagonal_sr.py
+    sda         Ford-Hall singular-direction avoidance (2000)  singular_direction_avoidance.py
+    pga         Vadali's preferred-gimbal-angle null motion    preferred_gimbal_angles.py
 
 Some keyword arguments are not options a user sets but what the caller knows at each step
-(STEP_INPUTS): `t` the time (gsr), `column_derivative` dJ_i/dbeta_i (minimax_avoid),
+(STEP_INPUTS): `t` the time (gsr, osr), `column_derivative` dJ_i/dbeta_i (minimax_avoid),
 `rate_bounds` per-gimbal bounds on beta'_i from angle and acceleration limits (gimbal_limits.py),
-and for minimax_avoid's pull back to the start: `gimbal_angle` (the angles J is taken at),
+and for minimax_avoid's pull back to the start (and pga's null motion): `gimbal_angle` (the angles J is taken at),
 `preferred_gimbal_angles` and `preferred_jacobian` (the run's first angles and J there) and
 `peak_rate_so_far` (the largest |beta'_i| commanded so far).
 """
@@ -33,8 +36,11 @@ from testbed.errors import InputError
 from testbed.steering.minimax_avoid import minimax_avoid_steering
 from testbed.steering.minimax_exact import minimax_steering
 from testbed.steering.minimax_lp import minimax_lp_steering
+from testbed.steering.off_diagonal_sr import osr_steering
+from testbed.steering.preferred_gimbal_angles import pga_steering
 from testbed.steering.pseudo_inverse import pinv_steering
 from testbed.steering.result import SteeringResult
+from testbed.steering.singular_direction_avoidance import sda_steering
 from testbed.steering.sr_inverse import gsr_steering, sr_steering
 
 STEERING_LAWS = {
@@ -44,6 +50,9 @@ STEERING_LAWS = {
     "minimax_lp": minimax_lp_steering,
     "minimax": minimax_steering,
     "minimax_avoid": minimax_avoid_steering,
+    "osr": osr_steering,
+    "sda": sda_steering,
+    "pga": pga_steering,
 }
 
 # Keyword arguments a caller supplies at each step (see the module doc), not user options.
@@ -78,4 +87,4 @@ def steer(name: str, J, h, Hdot, beta_rate_max, **options) -> SteeringResult:
 
 __all__ = ["STEERING_LAWS", "LAW_OPTIONS", "STEP_INPUTS", "SteeringResult", "steer", "steering_law",
            "pinv_steering", "sr_steering", "gsr_steering", "minimax_lp_steering",
-           "minimax_steering", "minimax_avoid_steering"]
+           "minimax_steering", "minimax_avoid_steering", "osr_steering", "sda_steering", "pga_steering"]

@@ -74,6 +74,17 @@ def sr_steering(J, h, Hdot, beta_rate_max, *, lambda0: float = 0.01, m0: float =
     return limited_result(J, h, beta_rate, beta_rate_max, svd.measure, svd.rank, bounds=bounds)
 
 
+def checked_wie_options(t, lambda0, mu, epsilon0, omega, rcond) -> tuple[float, ...]:
+    """The options Wie's laws share (gsr, osr), checked: t finite, lambda0 > 0, mu >= 0,
+    0 <= epsilon0 < 1/2 (E positive definite), omega finite, 0 < rcond < 1; else InputError."""
+    return (number_in("steering.t", t, -math.inf, math.inf, low_open=True, high_open=True),
+            positive_number("steering.lambda0", lambda0, allow_inf=False),
+            number_in("steering.mu", mu, 0.0, math.inf, high_open=True),
+            number_in("steering.epsilon0", epsilon0, 0.0, 0.5, high_open=True),
+            number_in("steering.omega", omega, -math.inf, math.inf, low_open=True, high_open=True),
+            number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True))
+
+
 def gsr_steering(J, h, Hdot, beta_rate_max, *, t: float = 0.0, lambda0: float = 0.01,
                  mu: float = 10.0, epsilon0: float = 0.01, omega: float = math.pi / 2,
                  phases=(0.0, math.pi / 2, math.pi), rcond: float = DEFAULT_RCOND,
@@ -85,12 +96,7 @@ def gsr_steering(J, h, Hdot, beta_rate_max, *, t: float = 0.0, lambda0: float = 
     rate_bounds: optional per-gimbal (lo, hi) (rate_limit.apply_rate_bounds).
     """
     rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
-    t = number_in("steering.t", t, -math.inf, math.inf, low_open=True, high_open=True)
-    lambda0 = positive_number("steering.lambda0", lambda0, allow_inf=False)
-    mu = number_in("steering.mu", mu, 0.0, math.inf, high_open=True)
-    epsilon0 = number_in("steering.epsilon0", epsilon0, 0.0, 0.5, high_open=True)
-    omega = number_in("steering.omega", omega, -math.inf, math.inf, low_open=True, high_open=True)
-    rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
+    t, lambda0, mu, epsilon0, omega, rcond = checked_wie_options(t, lambda0, mu, epsilon0, omega, rcond)
     try:
         phases = tuple(float(p) for p in phases)
     except (TypeError, ValueError):

@@ -4,7 +4,7 @@ The cluster must deliver H' = -(M + w x H) (SEEDS §004 eq. 14, 16, body frame) 
 h J(b) b' = H' (eq. 17), or H' = -M for a law that compensates w x (I w + H) itself
 (testbed.attitude_laws.momentum_input: then `torque_delivered` is -H' too); J, h and H are read from the compiled model (ClusterGeometry) at
 the measured gimbal angles and rotor speeds. Each law of testbed.steering is a stage type:
-`pinv`, `sr`, `gsr`, `minimax_lp`, `minimax`, `minimax_avoid`. When the best achievable
+`pinv`, `sr`, `gsr`, `minimax_lp`, `minimax`, `minimax_avoid`, `osr`, `sda`, `pga`. When the best achievable
 max |b'_i| exceeds b'max the demand is scaled down, keeping its direction; `scale` records the
 factor, `torque_delivered` the torque the command produces on the bus, `momentum` the H it was
 computed with (the rotors' spin momentum H(beta, Omega) the encoders and rotor tachometers give),
@@ -14,7 +14,7 @@ gimbal tachometers' `gimbal_rate` and the description the gimbal inertias) and `
 status flags as the sum of their codes (testbed.steering.result.STATUS_CODES: 1 rate_limited,
 2 rank_deficient, 4 lp_failed, 8 avoidance_limited; 0 ok). What a law needs at each step beyond
 J, h and H' (testbed.steering.STEP_INPUTS) comes from the clock and the cluster description:
-`t` (gsr); dJ_i/dbeta_i (minimax_avoid, `unit_jacobian_derivative` of the description), the
+`t` (gsr, osr); dJ_i/dbeta_i (minimax_avoid, `unit_jacobian_derivative` of the description), the
 measured angles, the angles at t = 0 and J there, and the peak rate commanded so far
 (minimax_avoid's pull back to the start's zero-momentum family).
 
@@ -38,6 +38,10 @@ thresholds `fault_rate_residual_deg_s`, `fault_rate_residual_rel`, `fault_speed_
 law runs on the other units' columns, and its command pinned at 0 (a zero column takes any rate
 without torque). `fault_residual` and `failed_units` are recorded; docs/theory/faults.md.
 
+Singularity classification (every law): below `classify_below` of sqrt(det(J J^T)) the stage records
+`singularity_type` (singularity_type.py: 1 hyperbolic, 2 elliptic, 3 degenerate; 0 above the
+threshold) and `singular_direction` u (zeros above the threshold), by Bedrossian's test.
+
 Near-singular default: singular values of J below STAGE_RCOND = 1e-2 of the largest count as
 zero (the library's own default is 1e-9). Then the demand component along the nearly singular
 direction is dropped (the least-squares projection onto the well-conditioned range is
@@ -60,6 +64,7 @@ from testbed.steering import LAW_OPTIONS, STEERING_LAWS, STEP_INPUTS
 from testbed.steering.fault_isolation import FaultIsolation
 from testbed.steering.gimbal_limits import GimbalLimits
 from testbed.steering.result import status_code
+from testbed.steering.singularity_type import NOT_SINGULAR, singularity_type
 
 STAGE_RCOND = 1e-2  # relative singular-value cut for the stage (see module doc)
 ACCELERATION_ROUNDING = 1e-9  # relative slack of the acceleration count for the bounds' rounding
@@ -79,6 +84,8 @@ class SteeringParams:
     fault_speed_residual_rel: float = param(0.01, gt=0, lt=1, doc="sigma: rotor-speed threshold, share of nominal")
     fault_persistence: int = param(3, ge=1, le=1000, doc="consecutive control ticks over threshold before isolation")
     max_failed_units: int = param(1, ge=1, le=10, doc="most units dropped (the rest must keep rank 3)")
+    # Bedrossian's test below this sqrt(det(J J^T)) (singularity_type.py): allocator/singularity_type, singular_direction
+    classify_below: float = param(0.05, ge=0, doc="singularity measure below which the state is classified")
 
     def validate(self, path: str) -> None:
         for i, pair in enumerate(self.gimbal_angle_limits_deg or []):
@@ -154,6 +161,8 @@ class SteeringAllocator:
         defaults = {"rcond": STAGE_RCOND} if "rcond" in LAW_OPTIONS[self.law_name] else {}
         self.options = defaults | params.options
         self._check_options()
+        self.classify_below = params.classify_below
+        self.classifies = hasattr(self.geometry, "unit_jacobian_derivative")
         self.isolation = FaultIsolation(params, gimbals, getattr(
             self.geometry, "nominal_rotor_speed", None)) if params.fault_detection else None
         self.reset_statistics()
@@ -218,6 +227,17 @@ class SteeringAllocator:
             s["min_angle_margin"] = min(s["min_angle_margin"], float(np.min(margin)))
         s["steps"] += 1
 
+    def _classified(self, measure, jacobian, beta, momentum, failed=()):
+        """(kind code, singular direction u) by Bedrossian's test when the measure is below
+        `classify_below` (singularity_type.py), else (NOT_SINGULAR, zeros); a failed unit's column
+        is zero in J and in dJ/dbeta alike."""
+        if not self.classifies or measure >= self.classify_below:
+            return np.array([float(NOT_SINGULAR)]), np.zeros(3)
+        derivative = self.geometry.unit_jacobian_derivative(beta)
+        derivative[:, list(failed)] = 0.0
+        kind = singularity_type(jacobian, derivative, momentum)
+        return np.array([float(kind.kind)]), kind.direction
+
     def allocate(self, t, demand, estimate, actuators):
         beta, rotor = actuators["gimbal_angle"], actuators["rotor_rate"]
         torque = np.asarray(demand.get("torque", np.zeros(3)), float)
@@ -259,6 +279,8 @@ class SteeringAllocator:
                    "singularity": np.array([result.singularity_measure]),
                    "rank": np.array([float(result.rank)]),
                    "status": np.array([float(status_code(result.status))])}
+        command["singularity_type"], command["singular_direction"] = self._classified(
+            result.singularity_measure, jacobian, beta, momentum, failed)
         if self.isolation is not None:
             command["fault_residual"] = residual
             command["failed_units"] = (~self.isolation.healthy).astype(float)

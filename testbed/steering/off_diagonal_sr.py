@@ -1,0 +1,58 @@
+"""Wie's off-diagonal singularity-robust inverse (Wie 2005, J. Guid. Control Dyn. 28(5), 948-956,
+"Singularity escape/avoidance steering logic for control moment gyro systems", eq. (25)-(27)):
+
+    beta' = W J^T (J W J^T + lambda E)^-1 b,   b = H'/h,   lambda = lambda0 exp(-mu det(J J^T)),
+
+    W = [[w_1, lambda, lambda, lambda], ..., [lambda, lambda, lambda, w_4]]   (off-diagonal lambda),
+    E = [[1, e3, e2], [e3, 1, e1], [e2, e1, 1]],   e_i = epsilon0 sin(omega t + phi_i).
+
+The off-diagonal terms of W mix the gimbals' rates, those of E keep (J W J^T + lambda E)^-1 b out of
+the singular direction: together they let the command leave a singular state, where the plain
+pseudo-inverse gives zero rates for a demand along the singular direction (docs/theory/steering.md
+"Published laws"). `gsr` (sr_inverse.py) is the same law with W = I. Defaults: NASA 42's
+(lambda0 = 0.01, mu = 10, epsilon0 = 0.1, omega = 1 rad/s, phases 0, pi/2, pi, w_i = 1).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from testbed.errors import InputError
+from testbed.math.validation import positive_number
+from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd
+from testbed.steering.result import SteeringResult, limited_result
+from testbed.steering.sr_inverse import checked_wie_options, wie_damping, wie_dither_matrix
+from testbed.steering.validation import checked_problem, checked_rate_bounds
+
+PHASES = (0.0, math.pi / 2, math.pi)
+
+
+def off_diagonal_weights(damping: float, weight: float, gimbals: int) -> np.ndarray:
+    """W of Wie 2005 eq. (26): `weight` on the diagonal, the damping lambda everywhere else."""
+    return np.full((gimbals, gimbals), damping) + (weight - damping) * np.eye(gimbals)
+
+
+def osr_steering(J, h, Hdot, beta_rate_max, *, t: float = 0.0, lambda0: float = 0.01, mu: float = 10.0,
+                 epsilon0: float = 0.1, omega: float = 1.0, weight: float = 1.0, rcond: float = DEFAULT_RCOND,
+                 rate_bounds=None) -> SteeringResult:
+    """Wie's off-diagonal SR rates at time t [s] (module doc, Wie 2005 eq. (25)-(27)), rate-limited;
+    options: lambda0 = 0.01, mu = 10, epsilon0 = 0.1 (< 0.5), omega = 1 rad/s, weight = 1 (> lambda0), rcond.
+
+    The damping never vanishes, so J W J^T + lambda E is invertible at any rank (rcond only sets the
+    reported rank). rate_bounds: optional per-gimbal (lo, hi) (rate_limit.apply_rate_bounds).
+    """
+    rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
+    t, lambda0, mu, epsilon0, omega, rcond = checked_wie_options(t, lambda0, mu, epsilon0, omega, rcond)
+    weight = positive_number("steering.weight", weight, allow_inf=False)
+    if weight <= lambda0:
+        raise InputError("steering.weight", f"must exceed lambda0 = {lambda0:g} (W positive definite)")
+    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max)
+    J = np.array(rows)
+    svd = jacobian_svd(J, rcond)
+    damping = wie_damping(svd.measure ** 2, lambda0, mu)
+    W = off_diagonal_weights(damping, weight, J.shape[1])
+    E = wie_dither_matrix(t, epsilon0, omega, PHASES)
+    beta_rate = W @ J.T @ np.linalg.solve(J @ W @ J.T + damping * E, np.array(hdot) / h)
+    return limited_result(J, h, beta_rate, beta_rate_max, svd.measure, svd.rank, bounds=bounds)
