@@ -99,7 +99,8 @@ def _load(field: str, key: str, do_import, where: str) -> None:
         # paths are taken in, and where its output and errors go
         if os.getcwd() != cwd:
             os.chdir(cwd)
-        sys.stdout, sys.stderr = streams
+        if sys.stdout is None or sys.stderr is None:  # not a redirection another thread may have made meanwhile
+            sys.stdout, sys.stderr = sys.stdout or streams[0], sys.stderr or streams[1]
 
 
 def _failure_place(exc: BaseException, where: str) -> str:

@@ -143,7 +143,7 @@ def test_estimator_sees_only_the_gyro_and_its_error_follows_the_observer(spinup)
     seen = []
     original = pipeline.estimator.estimate
     pipeline.estimator.estimate = lambda t, m, c: seen.append((set(m), set(c))) or original(t, m, c)
-    _loop(plant, pipeline, Recorder(100), 20, 1, scenario.sim, None)
+    _loop(plant, pipeline, Recorder(100), 0, 20, 1, scenario.sim, None, 20)
     assert len(seen) == 20 and all(m == {"y", "stamp"} for m, _ in seen)
     assert all(c <= {"body_torque"} for _, c in seen)
 
