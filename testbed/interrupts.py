@@ -30,7 +30,9 @@ class Terminated(BaseException):
 # Signals whose default action ends the process with no clean-up (a plug-in's signal.alarm, a
 # terminal hang-up): handled as SIGTERM is, where nothing else handles them (pytest-timeout's
 # SIGALRM handler, say, stays).
-OTHER_ENDING_SIGNALS = (signal.SIGHUP, signal.SIGALRM, signal.SIGUSR1, signal.SIGUSR2)
+OTHER_ENDING_SIGNALS = tuple(getattr(signal, name) for name in (
+    "SIGHUP", "SIGALRM", "SIGUSR1", "SIGUSR2", "SIGQUIT", "SIGXCPU", "SIGXFSZ", "SIGVTALRM", "SIGPROF",
+    "SIGPWR", "SIGSTKFLT") if hasattr(signal, name))  # SIGXCPU: what `ulimit -t` sends
 
 
 def _terminated_by(signum: int) -> type[Terminated]:

@@ -158,3 +158,15 @@ def test_the_classical_controller_reaches_the_target_as_the_same_plugin_does():
 def test_the_random_policy_example_repeats_from_its_seed():
     rollout = example("gym_random_policy").rollout
     assert rollout("testbed/CmgSlew-v0", seed=1, periods=20)[0] == rollout("testbed/CmgSlew-v0", seed=1, periods=20)[0]
+
+
+@pytest.mark.parametrize("action", [np.array([1j, 0, 0]), np.array([np.nan, 0, 0]), np.zeros(4)])
+def test_an_action_that_is_not_a_finite_real_vector_is_refused(action):
+    """A complex action had its imaginary part dropped, with numpy's raw ComplexWarning."""
+    env = gymnasium.make("testbed/CmgSlew-v0", overrides=["sim.duration_s=1"], disable_env_checker=True)
+    env.reset(seed=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match="finite"):
+            env.step(action)
+    env.close()

@@ -1246,8 +1246,10 @@ def test_interrupt_at_each_step_of_the_trace_write(cli, monkeypatch, where, inte
 @pytest.fixture(scope="module")
 def signalling_plugin(tmp_path_factory) -> Path:
     """A plug-in law that sends its own process a signal (`signal_number`) at `at_s`: the signal
-    then arrives while a stage is running, deterministically."""
-    folder = tmp_path_factory.mktemp("plugin")
+    then arrives while a stage is running, deterministically. One folder per process: xdist may
+    build a module fixture twice in one worker, and a second file would register the law twice."""
+    folder = tmp_path_factory.getbasetemp() / "signalling_plugin"
+    folder.mkdir(exist_ok=True)
     (folder / "hostile_signal_law.py").write_text(textwrap.dedent('''\
         import os
         from dataclasses import dataclass

@@ -140,3 +140,20 @@ def test_a_stage_that_forks_or_takes_sigint_fails_its_run(tmp_path, mode, why):
     assert code == 1, (code, err)
     assert f"PluginRefused: {why}" in out and "Traceback" not in err, (out, err)
     assert files(tmp_path) == ["t.rrd"]  # the trace up to the failing tick, as for any stage failure
+
+
+@pytest.mark.parametrize("sig", [signal.SIGXCPU, signal.SIGVTALRM, signal.SIGQUIT])
+def test_another_signal_that_would_end_the_run_ends_it_in_one_line(tmp_path, sig):
+    """SIGXCPU (`ulimit -t`), SIGVTALRM, SIGQUIT (Ctrl-\\) in the middle of a run: one line, exit
+    128 + n, no .partial left (before: killed by it, the .partial left behind)."""
+    path = scenario(tmp_path, 3000)
+    proc = subprocess.Popen([sys.executable, "-m", "testbed", "run", str(path), "--out", "t.rrd"], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    start = time.monotonic()
+    while not list(tmp_path.glob(".t.rrd.*.partial")) and proc.poll() is None and time.monotonic() - start < 60:
+        time.sleep(0.02)
+    proc.send_signal(sig)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 128 + sig, (proc.returncode, err)
+    assert err.splitlines() == [f"terminated by {signal.Signals(sig).name}"]
+    assert files(tmp_path) == []

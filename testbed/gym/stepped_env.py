@@ -79,6 +79,8 @@ class SteppedEnv(gymnasium.Env):
         return self.observation(), self._info(False)
 
     def step(self, action):
+        if np.iscomplexobj(action):  # float64 of it would drop the imaginary part, with a warning
+            raise ValueError(f"the action must be a finite real array of shape {self.action_space.shape}, got {action!r}")
         action = np.asarray(action, dtype=np.float64)
         if action.shape != self.action_space.shape or not np.all(np.isfinite(action)):
             raise ValueError(f"the action must be a finite array of shape {self.action_space.shape}, got {action!r}")

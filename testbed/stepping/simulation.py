@@ -63,6 +63,8 @@ class Simulation:
         if out is not None and not isinstance(out, (str, os.PathLike)):
             raise InputError("out", f"must be a file path (str or pathlib.Path) or None, got {type(out).__name__}")
         self._out = out.path if isinstance(out, CheckedPath) else output_path(out) if out is not None else None
+        if not isinstance(keep_trace, bool):
+            raise InputError("keep_trace", f"must be True or False, got {keep_trace!r}")
         self._stages, self._keep_trace = stages, keep_trace
         self._run: RunInProgress | None = None
         self._closed = False  # the episode's result is made: it is read, no longer stepped
@@ -218,6 +220,15 @@ class Simulation:
             with self._run:
                 self.result = self._run.finish()
 
+    def _expected_keys(self, slot: str) -> tuple:
+        """The keys a given output must hold, as the stage it stands in for gives them: the ones
+        that stage declares (`outputs`), else the ones it gave at the last tick; a law's torque."""
+        pipeline = self._run.pipeline
+        declared = tuple(getattr(getattr(pipeline, slot), "outputs", ()) or ())
+        last = {"sensor": pipeline.measurement, "estimator": pipeline.estimate, "law": pipeline.demand}.get(slot, {})
+        keys = declared or tuple(last)
+        return keys + ("torque",) if slot == "law" and "torque" not in keys else keys
+
     def _given(self, command) -> dict:
         """slot -> a stage returning the caller's output for this step, the output checked first."""
         if not isinstance(command, dict) or not command:
@@ -231,7 +242,7 @@ class Simulation:
             if not isinstance(output, dict):
                 raise InputError(f"command.{slot}", f"must be a dict of arrays, got {type(output).__name__}")
             key = next((k for k in output if k in actuators), None) if slot == "allocator" else None
-            check = output_check(slot, "given", actuators, key, where=f"command.{slot}")
+            check = output_check(slot, "given", actuators, key, self._expected_keys(slot), where=f"command.{slot}")
             try:
                 check(self.time, output)
             except StageFailed as exc:
