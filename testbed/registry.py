@@ -70,5 +70,22 @@ def snapshot() -> list[dict]:
 
 
 def restore(saved: list[dict]) -> None:
+    """Every registry as `snapshot` saw it, but for the testbed's own entries registered since
+    (a built-in module the failed plug-in imported first stays imported: its entries must stay)."""
     for registry, entries in zip(Registry.every, saved):
-        registry._entries = dict(entries)
+        registry._entries = dict(entries) | {
+            name: value for name, value in registry._entries.items()
+            if name not in entries and _own_module(value)}
+
+
+def _own_module(entry) -> bool:
+    """Whether what `entry` registers is defined in the testbed: the entry itself (a command's
+    parser function), the class of a stage's (Params, class) pair, or the callable of a record
+    (a metric's compute, a reference's prepare, a system's make_plant)."""
+    if isinstance(entry, tuple):
+        entry = entry[-1]
+    if not callable(entry):
+        entry = next((getattr(entry, name) for name in ("compute", "prepare", "make_plant") if hasattr(entry, name)),
+                     entry)
+    defined = getattr(entry, "__module__", None) or ""
+    return defined == "testbed" or defined.startswith("testbed.")
