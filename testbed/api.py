@@ -41,9 +41,8 @@ def run(scenario: Scenario | str | Path | dict, out: str | Path | None = None,
     strings such as '1e-4' that the project's loader reads as numbers are numbers here too) and
     return its result with the whole trace; `out` (a path) also writes the `.rrd` there, checked
     before the run (testbed.recording.output_paths). `keep_trace=False` keeps only what the
-    metrics need (memory flat however long the run); `live()` opens a viewer stream the run is
-    also sent to (testbed.recording.live_view.ViewerStream), called once the scenario and `out`
-    are checked; `prepared`: what `testbed.runner.prepare(scenario)` built, if it was built to
+    metrics need (memory flat however long the run); `live`: a viewer stream the run is also
+    sent to (testbed.recording.live_view.ViewerStream); `prepared`: what `testbed.runner.prepare(scenario)` built, if it was built to
     check the scenario before this run. `stages`: slot -> a Python object that takes that
     slot's place, with no registration (`{"law": my_law}`: an object with the slot's method,
     e.g. `torque(t, estimate)`, or a function called as it), held to a plug-in's output checks
@@ -60,12 +59,12 @@ def run(scenario: Scenario | str | Path | dict, out: str | Path | None = None,
         scenario = load(scenario, overrides)
     elif overrides:
         raise InputError("overrides", "a loaded Scenario is already validated: pass overrides to load()")
-    if isinstance(out, CheckedPath):  # checked once, by the command line before it opened a viewer
+    if isinstance(out, CheckedPath):  # checked once already, by the command line
         out = out.path
     elif out is not None:
         out = output_path(out)  # as given: a trailing "/" matters
     return run_scenario(scenario, out, progress, keep_data=keep_trace,
-                        live=live() if live is not None else None, prepared=prepared, stages=stages)
+                        live=live, prepared=prepared, stages=stages)
 
 
 def read(path: str | Path) -> RunResult:

@@ -33,7 +33,6 @@ from testbed.cli.json_stdout import reserved_for_json
 from testbed.cli.progress import advance_to, progress_bar
 
 
-
 @command("sweep")
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser("sweep", aliases=["campaign"],

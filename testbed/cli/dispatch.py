@@ -23,7 +23,6 @@ from testbed.plugins import discover
 BUILT_IN_COMMANDS = (run, list_scenarios, inspect_trace, campaign, describe, init)
 
 
-
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # argparse's own usage errors are bad input too
         raise InputError("usage", message)

@@ -10,7 +10,6 @@ from testbed.cli.commands import EXIT_FAILED, EXIT_OK, command, reported
 from testbed.cli.run import print_checks
 
 
-
 @command("inspect")
 def add_parser(sub) -> None:
     p = sub.add_parser("inspect", help="read back a run's entities, time span, metrics and checks")

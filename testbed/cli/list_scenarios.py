@@ -6,7 +6,6 @@ from testbed.cli.commands import EXIT_OK, command, reported
 from testbed.errors import InputError
 
 
-
 @command("list")
 def add_parser(sub) -> None:
     p = sub.add_parser("list", help="list the scenarios with a one-line description")

@@ -15,7 +15,6 @@ from testbed.recording import live_view
 from testbed.recording.output_paths import checked_output, file_stem
 
 
-
 @command("run")
 def add_run_parser(sub) -> None:
     p = sub.add_parser("run", help="run one scenario headless and write its .rrd")
@@ -44,16 +43,12 @@ def add_check_parser(sub) -> None:
 
 def _run_one(name: str, overrides, out: str | None, show_progress: bool, view: bool = False, connect: str | None = None):
     scenario = api.load(name, overrides)
-    live = []  # the viewer stream, once opened (after the scenario and the output path are checked)
-
-    def open_live():
-        live.append(_live_view(view, connect))
-        return live[0]
-
     out_path = checked_output(Path("runs") / f"{file_stem(scenario.name)}.rrd" if out is None else out)
-    result = _run_loaded(scenario, out_path, show_progress, open_live if view or connect is not None else None)
-    if live and not live[0].complete:
-        print(f"note: the viewer at {live[0].url} did not take the whole run within {live_view.CLOSE_S:g} s; "
+    # the viewer once the scenario and the output path are checked: a refused run opens none
+    live = _live_view(view, connect) if view or connect is not None else None
+    result = _run_loaded(scenario, out_path, show_progress, live)
+    if live is not None and not live.complete:
+        print(f"note: the viewer at {live.url} did not take the whole run within {live_view.CLOSE_S:g} s; "
               f"the trace file holds it", file=sys.stderr)
     return result
 
