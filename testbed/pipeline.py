@@ -126,11 +126,18 @@ def require_free_body(ctx: StageContext, slot: str, name: str) -> None:
                                                   f"rotational degrees of freedom), not model.system {ctx.system}")
 
 
+def require_attitude_estimate(ctx: StageContext, name: str) -> None:
+    """Refuse a law that reads the attitude and rate with an estimator that does not give them."""
+    if not {"quat", "omega"} <= ctx.stages["estimator"].outputs:
+        raise InputError("pipeline.estimator.type", f"{name} needs an estimator that gives quat and omega "
+                                                    "(e.g. sensor ideal_attitude with estimator attitude)")
+
+
 def stage(slot: str, name: str, params_cls: type | None = None):
     """Register a stage class under `name` in `slot`; `params_cls` is its schema dataclass."""
 
     def register(cls):
-        STAGES[slot].add(name, (params_cls or _NoParams, cls))
+        STAGES[slot].add(name, (params_cls or _NoParams, cls), cls.__module__)
         cls.slot = slot
         cls.type_name = name
         return cls

@@ -6,11 +6,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from testbed.errors import InputError
 from testbed.attitude_laws.momentum_input import DESIGN, INPUT, check_allocator
 from testbed.math.quaternion import quat_conj, quat_from_axis_angle, quat_mul, rotation_vector
 from testbed.math.validation import check_unit_vector
-from testbed.pipeline import require_free_body
+from testbed.pipeline import require_attitude_estimate, require_free_body
 from testbed.scenario.schema import join, param
 
 
@@ -36,8 +35,7 @@ class Regulator:
 
     def __init__(self, params, ctx):
         require_free_body(ctx, "law", self.name)
-        if not {"quat", "omega"} <= ctx.stages["estimator"].outputs:
-            raise InputError("pipeline.estimator.type", f"{self.name} needs an estimator that gives quat and omega")
+        require_attitude_estimate(ctx, self.name)
         check_allocator(ctx, self.name)
         self.inertia = np.asarray(ctx.inertia, float)
         self.start_quat = np.asarray(ctx.initial.quat, float) / np.linalg.norm(ctx.initial.quat)

@@ -23,7 +23,7 @@ from testbed.guidance.tracking_law import TrackingLaw
 from testbed.math.quaternion import quat_conj, quat_rotate, rotation_vector
 from testbed.math.validation import unit_quaternion
 from testbed.orbit.frames import lvlh_quat, lvlh_rate
-from testbed.pipeline import require_free_body, stage
+from testbed.pipeline import require_attitude_estimate, require_free_body, stage
 from testbed.scenario.schema import join, param
 
 LAW_PATH = "pipeline.law"
@@ -82,9 +82,7 @@ class Pointing:
 
     def __init__(self, params: PointingParams, ctx):
         require_free_body(ctx, "law", "pointing")
-        if not {"quat", "omega"} <= ctx.stages["estimator"].outputs:
-            raise InputError("pipeline.estimator.type", "the pointing law needs an estimator that gives quat "
-                             "and omega (e.g. sensor ideal_attitude with estimator attitude)")
+        require_attitude_estimate(ctx, "the pointing law")
         if params.target == "nadir":
             if ctx.orbit is None:
                 raise InputError(join(LAW_PATH, "target"), "nadir pointing needs an orbit: add an orbit: block")

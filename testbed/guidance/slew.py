@@ -24,7 +24,7 @@ from testbed.errors import InputError
 from testbed.guidance.program_trajectory import ProgramTrajectory
 from testbed.guidance.tracking_law import TrackingLaw
 from testbed.math.validation import check_unit_vector
-from testbed.pipeline import require_free_body, stage
+from testbed.pipeline import require_attitude_estimate, require_free_body, stage
 from testbed.math.quaternion import quat_conj, quat_from_axis_angle, quat_mul, rotation_vector
 from testbed.scenario.schema import join, param
 
@@ -84,9 +84,7 @@ def slew_target(params: SlewParams, q0, t) -> np.ndarray:
 class Slew:
     def __init__(self, params: SlewParams, ctx):
         require_free_body(ctx, "law", "slew")
-        if not {"quat", "omega"} <= ctx.stages["estimator"].outputs:
-            raise InputError("pipeline.estimator.type", "the slew law needs an estimator that gives quat "
-                             "and omega (e.g. sensor ideal_attitude with estimator attitude)")
+        require_attitude_estimate(ctx, "the slew law")
         self.start = params.start_s
         self.angle_deg = params.angle_deg
         self.program = build_program(params, ctx.initial.quat)
