@@ -49,7 +49,8 @@ def metric(name: str, applies: Callable = lambda scenario: True, uses=None):
 
     def register(fn):
         declared = uses if uses is None or callable(uses) else tuple(uses)
-        METRICS.add(name, Metric(name, (fn.__doc__ or "").strip().splitlines()[0], applies, fn, declared))
+        METRICS.add(name, Metric(name, (fn.__doc__ or "").strip().splitlines()[0], applies, fn, declared),
+                    fn.__module__)
         return fn
 
     return register

@@ -25,14 +25,17 @@ class Registry:
     def __init__(self, kind: str):
         self.kind = kind
         self._entries: dict[str, Any] = {}
+        self._owners: dict[str, str] = {}  # name -> the module that defines what it registers
         Registry.every.append(self)
 
-    def add(self, name: str, entry: Any) -> None:
+    def add(self, name: str, entry: Any, owner: str = "") -> None:
+        """Register `entry` as `name`; `owner`: the module defining it (the decorated object's)."""
         if not isinstance(name, str) or not name:
             raise ValueError(f"a {self.kind} name must be a non-empty string, got {name!r}")
         if name in self._entries:
             raise DuplicateName(f"{self.kind} {name!r} is already registered")
         self._entries[name] = entry
+        self._owners[name] = owner
 
     def lookup(self, name: Any, field: str) -> Any:
         """The entry called `name`; else InputError naming `field` and the known names."""
@@ -75,17 +78,9 @@ def restore(saved: list[dict]) -> None:
     for registry, entries in zip(Registry.every, saved):
         registry._entries = dict(entries) | {
             name: value for name, value in registry._entries.items()
-            if name not in entries and _own_module(value)}
+            if name not in entries and _is_testbed_module(registry._owners.get(name, ""))}
+        registry._owners = {name: owner for name, owner in registry._owners.items() if name in registry._entries}
 
 
-def _own_module(entry) -> bool:
-    """Whether what `entry` registers is defined in the testbed: the entry itself (a command's
-    parser function), the class of a stage's (Params, class) pair, or the callable of a record
-    (a metric's compute, a reference's prepare, a system's make_plant)."""
-    if isinstance(entry, tuple):
-        entry = entry[-1]
-    if not callable(entry):
-        entry = next((getattr(entry, name) for name in ("compute", "prepare", "make_plant") if hasattr(entry, name)),
-                     entry)
-    defined = getattr(entry, "__module__", None) or ""
-    return defined == "testbed" or defined.startswith("testbed.")
+def _is_testbed_module(module: str) -> bool:
+    return module == "testbed" or module.startswith("testbed.")

@@ -23,7 +23,7 @@ EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
 def command(name: str):
     def register(add_parser):
-        COMMANDS.add(name, add_parser)
+        COMMANDS.add(name, add_parser, add_parser.__module__)
         return add_parser
 
     return register

@@ -36,7 +36,7 @@ REFERENCES = Registry("reference")
 
 def reference(name: str, systems: tuple[str, ...], params: type = _NoParams, with_scenario: bool = False):
     def register(prepare):
-        REFERENCES.add(name, ReferenceKind(systems, params, prepare, with_scenario))
+        REFERENCES.add(name, ReferenceKind(systems, params, prepare, with_scenario), prepare.__module__)
         return prepare
 
     return register

@@ -28,7 +28,7 @@ def system(name: str, params: type, free_flying: bool = True):
     """Register `make_plant(params, sim)` as system `name` with schema dataclass `params`."""
 
     def register(make_plant):
-        SYSTEMS.add(name, System(params, make_plant, free_flying))
+        SYSTEMS.add(name, System(params, make_plant, free_flying), make_plant.__module__)
         return make_plant
 
     return register
