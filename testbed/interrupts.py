@@ -12,8 +12,10 @@ from __future__ import annotations
 
 import _thread
 import contextlib
+import functools
 import signal
 import threading
+from typing import Callable
 
 REDELIVERY_DELAY_S = 1e-3  # finalizers that run while a signal is handled take microseconds
 
@@ -24,7 +26,9 @@ class Terminated(BaseException):
     handling would catch) so that a trace being written is removed on the way out; the command
     then exits 128 + `signum`."""
 
-    signum = signal.SIGTERM
+    def __init__(self, signum: int = signal.SIGTERM):
+        super().__init__(signum)
+        self.signum = signum
 
 
 # Signals whose default action ends the process with no clean-up (a plug-in's signal.alarm, a
@@ -33,10 +37,6 @@ class Terminated(BaseException):
 OTHER_ENDING_SIGNALS = tuple(getattr(signal, name) for name in (
     "SIGHUP", "SIGALRM", "SIGUSR1", "SIGUSR2", "SIGQUIT", "SIGXCPU", "SIGXFSZ", "SIGVTALRM", "SIGPROF",
     "SIGPWR", "SIGSTKFLT") if hasattr(signal, name))  # SIGXCPU: what `ulimit -t` sends
-
-
-def _terminated_by(signum: int) -> type[Terminated]:
-    return Terminated if signum == signal.SIGTERM else type("Terminated", (Terminated,), {"signum": signum})
 
 
 def from_a_signal(exc: BaseException) -> bool:
@@ -55,8 +55,8 @@ def inside_finalizer(frame) -> bool:
     return False
 
 
-def _raising(exception: type[BaseException], active: threading.Event):
-    """A handler that raises `exception`, or inside a finalizer delivers its signal again later,
+def _raising(exception: Callable[[], BaseException], active: threading.Event):
+    """A handler that raises `exception()`, or inside a finalizer delivers its signal again later,
     while `active` is set (once the block has ended, a late repeat would land outside it)."""
     def redeliver(signum):
         if active.is_set():
@@ -86,7 +86,7 @@ def signals_as_exceptions():
     previous = {signum: signal.signal(signum, _raising(exception, active))
                 for signum, exception in ((signal.SIGINT, KeyboardInterrupt), (signal.SIGTERM, Terminated))
                 if signal.getsignal(signum) != signal.SIG_IGN}  # `nohup`, a background job: still ignored
-    previous |= {signum: signal.signal(signum, _raising(_terminated_by(signum), active))
+    previous |= {signum: signal.signal(signum, _raising(functools.partial(Terminated, signum), active))
                  for signum in OTHER_ENDING_SIGNALS if signal.getsignal(signum) == signal.SIG_DFL}
     try:
         yield
