@@ -64,12 +64,17 @@ def _signal(signum, handler):
     return _real_signal(signum, handler)
 
 
+def _install(exit_, fork, set_signal) -> None:
+    """The process's os._exit, os.fork and signal.signal from now on."""
+    os._exit, os.fork, signal.signal = exit_, fork, set_signal
+
+
 def _after_fork_in_child() -> None:
     """A forked child is not running the parent's stage: its os._exit exits."""
     global _lock
     _lock = threading.Lock()  # another thread of the parent may have held it
     _guarded.clear()
-    os._exit, os.fork, signal.signal = _real_exit, _real_fork, _real_signal
+    _install(_real_exit, _real_fork, _real_signal)
 
 
 os.register_at_fork(after_in_child=_after_fork_in_child)
@@ -84,7 +89,7 @@ def os_exit_raises():
     with _lock:
         nested = ident in _guarded  # the outer block restores
         _guarded.add(ident)
-        os._exit, os.fork, signal.signal = _exit, _fork, _signal
+        _install(_exit, _fork, _signal)
     try:
         yield
     finally:
@@ -92,4 +97,4 @@ def os_exit_raises():
             with _lock:
                 _guarded.discard(ident)
                 if not _guarded:
-                    os._exit, os.fork, signal.signal = _real_exit, _real_fork, _real_signal
+                    _install(_real_exit, _real_fork, _real_signal)
