@@ -45,9 +45,10 @@ ZERO_SLOPE = 1e-13
 _PAIRS = ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))
 
 
-def minimize_max_abs_on_line(x, n) -> list[float]:
-    """argmin over beta = x + t n of max_i |beta_i| (4 floats each, n != 0), in closed form."""
-    t = minimax_line_parameter(x, n)
+def minimize_max_abs_on_line(x, n, price: float = 0.0) -> list[float]:
+    """argmin over beta = x + t n of max_i |beta_i| (4 floats each, n != 0), in closed form;
+    with a price > 0, of max_i |beta_i| + price |beta - beta_min-norm| (priced_line_parameter)."""
+    t = minimax_line_parameter(x, n) if price == 0.0 else priced_line_parameter(x, n, price)
     return [x[0] + t * n[0], x[1] + t * n[1], x[2] + t * n[2], x[3] + t * n[3]]
 
 
@@ -68,6 +69,36 @@ def minimax_line_parameter(x, n) -> float:
             v = abs(wj * a[i] - wi * a[j]) / den
             if v > best_v:
                 best_v, best_t = v, -(a[i] + a[j]) / den
+    return best_t
+
+
+def priced_line_parameter(x, n, price: float) -> float:
+    """The t minimising max_i |x_i + t n_i| + price |n| |t - t0| (4 floats each, n != 0), where
+    t0 = -(x . n) / |n|^2 is the minimum-norm solution, so the second term is price times the
+    null motion's size |beta' - beta'_min-norm| (docs/theory/steering.md, "A price on null motion").
+
+    The function is convex and piecewise linear in t, so its minimum lies at a kink: a root
+    -x_i / n_i, a crossing of two lines +-(x_i + t n_i), or t0; all 17 are compared. The exact
+    min-max t is kept wherever the envelope rises faster than price |n| on both of its sides.
+    """
+    norm2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]
+    t0 = -(x[0] * n[0] + x[1] * n[1] + x[2] * n[2] + x[3] * n[3]) / norm2
+    weight = price * math.sqrt(norm2)
+    exact = minimax_line_parameter(x, n)
+    # both terms are convex, so the minimum lies between their minimisers: kinks outside are skipped
+    low, high = min(exact, t0), max(exact, t0)
+    candidates = [t0, exact] + [-xi / ni for xi, ni in zip(x, n) if ni != 0.0 and low < -xi / ni < high]
+    for i, j in _PAIRS:
+        for sign in (1.0, -1.0):
+            den = n[i] - sign * n[j]
+            if den != 0.0 and low < -(x[i] - sign * x[j]) / den < high:
+                candidates.append(-(x[i] - sign * x[j]) / den)
+    best_t, best_f = t0, math.inf
+    for t in candidates:
+        f = max(abs(x[0] + t * n[0]), abs(x[1] + t * n[1]), abs(x[2] + t * n[2]),
+                abs(x[3] + t * n[3])) + weight * abs(t - t0)
+        if f < best_f:
+            best_t, best_f = t, f
     return best_t
 
 
@@ -100,31 +131,38 @@ def particular_solution(rows, b, n) -> list[float]:
     return x
 
 
-def minimax_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND, rate_bounds=None) -> SteeringResult:
+def minimax_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND, null_motion_price: float = 0.0,
+                     rate_bounds=None) -> SteeringResult:
     """Min-max gimbal rates (eq. 21 subject to 17), exactly and in microseconds, rate-limited.
 
     Same optimum as minimax_lp_steering (tested to 1e-9 relative); the rate limit scales the
     demand by k = beta_rate_max / min-max value, exact since the optimum is linear in H'.
+    null_motion_price: p >= 0; the rates minimise max_i |b'_i| + p |b' - b'_min-norm| instead
+    (priced_line_parameter): null motion is taken only where it lowers the peak rate by more than
+    p per unit of its own size, which keeps the optimum continuous where the min-max's is not
+    (a saturated gimbal with a nearly zero null component). 0: the paper's min-max.
     rate_bounds: optional per-gimbal (lo, hi), applied to the min-max rates like every law's
     (rate_limit.apply_rate_bounds; minimax_avoid uses the null space to meet them instead).
     """
     rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
     if rcond != DEFAULT_RCOND:  # skip the check on the hot path's default
         rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
+    if null_motion_price != 0.0:
+        null_motion_price = number_in("steering.null_motion_price", null_motion_price, 0.0, 1.0)
     b = (hdot[0] / h, hdot[1] / h, hdot[2] / h)
     n = cofactor_null_vector(rows)
     measure = math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3])  # Cauchy-Binet
     fro2 = sum(v * v for v in rows[0]) + sum(v * v for v in rows[1]) + sum(v * v for v in rows[2])
     rank, lp_failed = 3, False
     if measure > NEAR_SINGULAR * fro2 * math.sqrt(fro2):
-        beta = minimize_max_abs_on_line(particular_solution(rows, b, n), n)
+        beta = minimize_max_abs_on_line(particular_solution(rows, b, n), n, null_motion_price)
     else:
         Jm, bv = np.array(rows), np.array(b)
         svd = jacobian_svd(Jm, rcond)
         rank, measure = svd.rank, svd.measure
         if rank == 3:
             beta = minimize_max_abs_on_line(min_norm_solution(svd, bv).tolist(),
-                                            svd.null_space[0].tolist())
+                                            svd.null_space[0].tolist(), null_motion_price)
         else:
             p = min_norm_solution(svd, bv)  # least squares: min-norm solution for projected b
             lp = nullspace_lp_rates(p, svd.null_space)

@@ -25,8 +25,12 @@ feedforward  the same PD loop, softer (w_n of a few rad/s), plus one motor per g
     and the rate error r = b'(t_k+1) - c_k that remains tells the disturbance the tick met,
     averaged with the PD's weights: delta_k = delta_k^ + J r / Gamma_1 (a disturbance
     observer on the gimbal's own tachometer). The next tick uses the linear extrapolation
-    delta_k+1^ = 2 delta_k - delta_k-1, so the rate a tick ends at is off by the curvature of
-    the disturbance only (second order in Tc). Before t = 0 the servo held the gimbal at
+    delta_k+1^ = 2 delta_k - delta_k-1 + D (second difference of the PD-weighted mean gimbal
+    angles over the ticks k-1, k and k+1, the coming one predicted with the rate ramping to the
+    command): the gyroscopic torque h_i w . J_i changes with the angles as the bus turns under the
+    cluster and J_i turns with its gimbal (D = `angle_sensitivity`), so when the rates jump its
+    slope jumps with them, which a linear extrapolation alone misses by a few % of the jump on
+    the next tick. What is left is the curvature of the rest (second order in Tc). Before t = 0 the servo held the gimbal at
     rest: delta^ starts at the torque MuJoCo computes on the gimbal at the initial state
     (-qfrc_bias). J is the gimbal's effective inertia 1 / (M^-1)_gg (the bus and the other
     gimbals recoil a little), read from MuJoCo's mass matrix at t = 0. With a torque limit
@@ -88,6 +92,22 @@ def rate_deadbeat_gains(natural_frequency: float, damping_ratio: float, control_
     transition = expm(augmented * tc)
     gamma = transition[1, 2]
     return transition[1, 0] / gamma, transition[1, 1] / gamma, gamma
+
+
+def kernel_moments(natural_frequency: float, damping_ratio: float, control_period: float):
+    """(m1, m2): the first two moments of the PD's weighting of an acceleration over a tick,
+    m_k = int_0^Tc G(Tc - s) s^k ds / Gamma_1 with G(tau) = [exp(A tau)]_11, so that an input
+    a(s) = a0 + a1 s + a2 s^2 ends the tick as the constant a0 + a1 m1 + a2 m2 would
+    (the polynomial input appended to the augmented system, Van Loan)."""
+    w_n, zeta, tc = natural_frequency, damping_ratio, control_period
+    moments = []
+    for power in (0, 1, 2):
+        augmented = np.zeros((5, 5))  # (theta, e, 1, s, s^2): the last three generate s^k
+        augmented[:2, :2] = [[0.0, 1.0], [-w_n * w_n, -2.0 * zeta * w_n]]
+        augmented[1, 2 + power] = 1.0
+        augmented[3, 2], augmented[4, 3] = 1.0, 2.0
+        moments.append(expm(augmented * tc)[1, 2])
+    return moments[1] / moments[0], moments[2] / moments[0]
 
 
 class IntVelocityServo:
@@ -174,8 +194,14 @@ class FeedForwardServo(IntVelocityServo):
         self._dofs = np.asarray(bus.gimbal_qvel_adr)
         self._kv = -model.actuator_biasprm[bus.gimbal_actuator_ids, 2]
         self.p, self.q, self.gamma = rate_deadbeat_gains(natural_frequency, damping_ratio, control_period)
+        self.m1, self.m2 = kernel_moments(natural_frequency, damping_ratio, control_period)
+        self.period = control_period
         self.torque_limit = torque_limit
         self.model = model
+        self.geometry = bus.geometry
+        self._bus_rate = data.qvel[bus.qvel_adr + 3:bus.qvel_adr + 6]  # body frame
+        self._rotor_rate = data.qvel[bus.rotor_qvel]
+        self._bus_dofs = np.arange(bus.qvel_adr, bus.qvel_adr + 6)
 
     def start(self, data) -> None:
         """At the initial state, after mj_forward: effective inertias from the mass matrix,
@@ -195,6 +221,41 @@ class FeedForwardServo(IntVelocityServo):
         self._predicted = list(self._delta)
         self._torque = [0.0] * len(self._delta)
         self._current = self._previous = self._rate.tolist()  # no rate error before t = 0
+        # the bus's rotational response to a torque from the cluster, the gimbals moving as
+        # commanded: the rotational block of the inverse of the bus's 6x6 block of M
+        full = np.zeros((self.model.nv, self.model.nv))
+        mujoco.mj_fullM(self.model, data, full)
+        self._bus_response = np.linalg.inv(full[np.ix_(self._bus_dofs, self._bus_dofs)])[3:, 3:]
+        # the gimbals' angles and rates at the last tick and their weighted mean angles over
+        # the last two ticks (at rest before t = 0)
+        self._last_angle, self._last_rate = self._angle.copy(), self._rate.copy()
+        self._mean_last = self._mean_before = self._angle.copy()
+
+    def angle_sensitivity(self) -> np.ndarray:
+        """D = d(delta')/d(beta') [N m s / rad], (4, 4), at the present state: the disturbance on
+        gimbal i is h_i w . J_i (the rotor's gyroscopic torque, J_i the unit torque axis), and it
+        changes as the bus turns under the cluster's torque, w' = -R sum_j h_j J_j b'_j (R the bus's
+        rotational response), and as J_i turns with the gimbal, dJ_i/db_i = -s_i:
+        D_ij = -h_i h_j J_i^T R J_j - [i = j] h_i w . s_i (docs/theory/gimbal-servo.md)."""
+        beta = self._angle
+        h = self.geometry.spin_inertia * self._rotor_rate
+        jacobian = self.geometry.unit_jacobian(beta)  # (3, 4)
+        spin = self.geometry.spin_axes(beta)  # (4, 3)
+        coupling = jacobian.T @ self._bus_response @ jacobian
+        return -(h[:, None] * coupling * h[None, :]) - np.diag(h * (spin @ self._bus_rate))
+
+    def _angle_correction(self, command) -> list:
+        """D times the second difference of the PD-weighted mean gimbal angle over the last two
+        ticks and the coming one (predicted with the rate ramping from the measured one to the
+        command): the part of the disturbance's change that a linear extrapolation misses when
+        the rates change (module docstring)."""
+        angle, rate, tc = self._angle.copy(), self._rate.copy(), self.period
+        ramp = self.m2 / (2.0 * tc)
+        mean_last = self._last_angle + self._last_rate * self.m1 + (rate - self._last_rate) * ramp
+        mean_next = angle + rate * self.m1 + (np.asarray(command) - rate) * ramp
+        second = mean_next - 2.0 * mean_last + self._mean_before
+        self._mean_before, self._last_angle, self._last_rate = mean_last, angle, rate
+        return (self.angle_sensitivity() @ second).tolist()
 
     def apply(self, data, rates) -> None:
         """This tick's command: the observer's update from the last tick, then the held
@@ -207,10 +268,12 @@ class FeedForwardServo(IntVelocityServo):
             command, followed = self._clipped(self._current), self._clipped(self._previous)
         rate, angle, setpoint = self._rate.tolist(), self._angle.tolist(), self._setpoint.tolist()
         delta, coming, torque = self._delta, self._predicted, self._torque  # last tick's, overwritten here
+        correction = self._angle_correction(command)
         for i, gain, kv_q, jp, jq in self._gains:  # in place: cheaper than zips, comprehensions or new lists
             rate_i = rate[i]
             delta_i = coming[i] + gain * (rate_i - followed[i])  # the disturbance the last tick met
-            coming_i = coming[i] = 2.0 * delta_i - delta[i]  # extrapolated over this tick
+            # extrapolated over this tick, plus what the gimbals' changed rates change in it
+            coming_i = coming[i] = 2.0 * delta_i - delta[i] + correction[i]
             delta[i] = delta_i
             torque[i] = kv_q * command[i] - jp * (angle[i] - setpoint[i]) - jq * rate_i - coming_i
         limit = self.torque_limit
