@@ -139,6 +139,7 @@ class CmgPlant(Plant):
     rates and the cluster momentum H (body frame)."""
 
     actuators = {"body_torque": (3,), "gimbal_rates": (N_CMG,), "rotor_speeds": (N_CMG,)}
+    tracking_metric = "gimbal_rate_error_rel"  # the servo's tracking, bounded by the accuracy guard
 
     def __init__(self, model, params, control_period: float):
         """`params`: the validated CmgRhombusParams `model` was built from (its servo model and
