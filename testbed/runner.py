@@ -220,7 +220,8 @@ class RunInProgress:
             if getattr(reference, "signals", None) is None:
                 keep = None  # a reference that does not say what it reads sees everything
         self.keep_data = keep_data
-        self.reductions = Reductions(metrics.reductions(scenario) + accuracy_guard.reductions(scenario))
+        self.monitors = accuracy_guard.Monitors(scenario, plant, pipeline)  # the accuracy guard's
+        self.reductions = Reductions(metrics.reductions(scenario) + self.monitors.reductions())
         self.status, self.error = "ok", None
         steps = self.n_ticks * self._per_tick
         footer = steps // self._trace_every <= trace.FOOTER_MAX_SAMPLES  # a long run: no footer (recording_to)
@@ -287,8 +288,7 @@ class RunInProgress:
                        self.plant.description(), self.momentum_scale, self.stream.reference_error,
                        reductions=self.reductions)
         values, why = metrics.compute_all(data) if recorder.count > 1 else ({}, {})
-        checks = metrics.evaluate_checks(scenario, values, why) + accuracy_guard.guard_checks(scenario, self.plant,
-                                                                                             values, data)
+        checks = metrics.evaluate_checks(scenario, values, why) + self.monitors.checks(scenario, values, data)
         error = self.error
         result = RunResult(scenario.name, recorder.last_time, 0.0, self.status, error and error_line(error),
                            values, checks, str(self.out) if self.out else None, data if self.keep_data else None,

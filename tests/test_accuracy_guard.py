@@ -2,16 +2,22 @@
 
 The case is the torque-free Skylab body of scenarios/torque_free_tumble.yaml spun up to
 2 rad/s, its own checks and reference removed, so that only the guard can fail it. The
-independent number is the conservation law: L_world = R(q) I w computed in the test from the
-recorded attitude and rate (scipy's Rotation), which must stay constant for a free body.
+independent numbers: the conservation law, L_world = R(q) I w computed in the test from the
+recorded attitude and rate (scipy's Rotation), which must stay constant for a free body;
+RK4's amplification on an axisymmetric body, whose transverse rate turns at a known rate; the
+frequency response of the intvelocity servo's second-order loop. No false positive: short runs
+of shipped CMG scenarios, a stepped run and a Gymnasium episode.
 """
 
 from __future__ import annotations
 
+import gymnasium
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+import testbed
+import testbed.gym  # noqa: F401  (registers the environments)
 from testbed.cli import main
 from testbed.runner import run_scenario
 from testbed.scenario.loading import load_scenario
@@ -98,3 +104,105 @@ def test_a_rate_that_grows_past_the_step_limit_fails_the_run():
     assert "dt 0.3 s" in rows["accuracy:step_angle"]["reason"] and not result.passed
     relaxed = run_scenario(load_scenario("torque_free_tumble", TUMBLE[:1] + ["checks={}", "reference="] + spin_up), None)
     assert relaxed.passed  # 0.6 rad a step is under the default 0.7
+
+
+def guard_rows(result) -> dict:
+    return {c["name"]: c for c in result.checks if c["name"].startswith("accuracy:")}
+
+
+def test_rk4s_energy_error_on_an_axisymmetric_body_is_the_guards_figure():
+    # I = (1000, 1000, 2000): w_z stays 1 rad/s and (w_x, w_y) turns at lam = (Iz - Ix) / Ix w_z =
+    # 1 rad/s (Euler's equations, linear here); RK4 multiplies its length by |R(i lam dt)|, R the
+    # degree-4 Taylor polynomial of exp, at every step: T(n) = Iz wz^2 / 2 + Ix |w_t|^2 |R|^2n / 2.
+    # Well conditioned (a product of 1000-3000 known factors): pinned to 1e-6.
+    def run(dt):
+        overrides = ["model.inertia_kg_m2=[1000, 1000, 2000]", "initial.omega_rad_s=[0.5, 0, 1]",
+                     "sim.duration_s=300", f"sim.dt_s={dt}", f"sim.control_period_s={dt}", "checks={}", "reference="]
+        return run_scenario(load_scenario("torque_free_tumble", overrides), None)
+
+    def rk4_drift(dt):
+        z = 1j * dt
+        gain = abs(1 + z + z ** 2 / 2 + z ** 3 / 6 + z ** 4 / 24) ** 2
+        transverse, total = 0.5 * 1000 * 0.25, 0.5 * 2000 + 0.5 * 1000 * 0.25
+        return transverse * (1 - gain ** round(300 / dt)) / total
+
+    coarse, fine = run(0.1), run(0.05)
+    assert rk4_drift(0.1) > 1e-6 > rk4_drift(0.05)  # the default threshold lies between the two
+    row = guard_rows(coarse)["accuracy:energy_drift"]
+    assert row["value"] == pytest.approx(rk4_drift(0.1), rel=1e-6) and "dt 0.1 s" in row["reason"]
+    assert not coarse.passed
+    assert fine.passed and not guard_rows(fine)
+
+
+def test_a_soft_servo_that_lags_its_command_fails_the_tracking_guard(tmp_path):
+    # the intvelocity servo is the loop b'/c = H(s) = w_n^2 / (s^2 + 2 zeta w_n s + w_n^2): on
+    # c_i = A_i sin(w_i t) it lags by |H(i w_i) - 1| A_i in steady state (rotor momentum ~0: no
+    # gyroscopic torque). The guard discounts the command's change over the last two ticks,
+    # at most max_j A_j w_j Tc / A_i (0.3 % here), and the bus's recoil leaves the gimbal a little
+    # less inertia than the gains were set for (w_n a little higher): a band of 3 % (measured -2.2 %).
+    wn, zeta, period = 3.0, 1.0, 0.01
+    amplitude = np.radians([3.0, 2.0, 4.0, 2.5])
+    w = 2 * np.pi * np.array([0.02, 0.031, 0.013, 0.047])  # cmg_open_loop's profile
+    overrides = ["model.servo_model=intvelocity", f"model.servo_natural_frequency_rad_s={wn}",
+                 "model.rotor_momentum_nms=0.001", "pipeline.allocator.phase_deg=[0, 0, 0, 0]",
+                 f"sim.trace_period_s={period}", "sim.duration_s=25", "checks={}", "reference="]
+    lag = np.abs(wn ** 2 / (wn ** 2 - w ** 2 + 2j * zeta * wn * w) - 1)
+    result = run_scenario(load_scenario("cmg_open_loop", overrides), None)
+    row = guard_rows(result)["accuracy:tracking"]
+    assert row["value"] == pytest.approx(lag.max(), rel=0.03) and not result.passed
+    out = tmp_path / "soft.rrd"
+    assert main(["run", "cmg_open_loop", "--out", str(out)] + [a for o in overrides for a in ("--set", o)]) == 1
+    assert out.exists()
+
+
+@pytest.mark.parametrize("name", ["reorient_minimax", "cmg_open_loop"])
+@pytest.mark.parametrize("duration", [1, 3])
+def test_no_false_positive_on_short_runs_of_cmg_scenarios(name, duration):
+    # before the slew starts (5 s) the commands are round-off (1e-12 rad/s): judged against the
+    # scale floor, not against themselves
+    result = testbed.run(name, overrides=[f"sim.duration_s={duration}", "checks={}", "reference="])
+    assert result.status == "ok" and not guard_rows(result)
+
+
+def test_no_false_positive_on_a_stepped_run_with_jumps_and_pushes():
+    # random gimbal-rate jumps as big as the commands, then a body torque given at one step (an
+    # external push: the momentum monitor must not judge that run)
+    rng = np.random.default_rng(3)
+    with testbed.Simulation("reorient_minimax", ["sim.duration_s=1", "checks={}"]) as sim:
+        while sim.ticks < 10:
+            sim.step({"allocator": {"gimbal_rates": rng.uniform(-0.1, 0.1, 4)}})
+        sim.step({"allocator": {"body_torque": np.array([50.0, 0.0, 0.0])}})
+        while sim.running:
+            sim.step()
+        result = sim.close()
+    assert result.metrics["momentum_drift_rel"] > 1e-3  # the push changed L
+    assert result.passed and not guard_rows(result)
+
+
+def test_no_false_positive_on_a_gym_episode():
+    env = gymnasium.make("testbed/CmgSlewGimbalRates-v0", overrides=["sim.duration_s=2"])
+    env.reset(seed=1)
+    env.action_space.seed(1)
+    done = False
+    while not done:
+        _, _, terminated, truncated, _ = env.step(env.action_space.sample())  # a random policy's jumps
+        done = terminated or truncated
+    result = env.unwrapped.sim.close()
+    env.close()
+    assert result.status == "ok" and not guard_rows(result)
+
+
+def test_the_jitter_relaxes_its_tracking_guard_explicitly():
+    assert run_scenario(load_scenario("rotor_imbalance_jitter"), None).passed  # accuracy.tracking_error_rel_max 0.5
+    strict = run_scenario(load_scenario("rotor_imbalance_jitter", ["accuracy.tracking_error_rel_max=0.05"]), None)
+    assert list(guard_rows(strict)) == ["accuracy:tracking"]  # no momentum monitor: the jitter is external
+
+
+def test_an_unbalanced_rotor_turning_too_far_a_step_is_refused(tmp_path, capsys):
+    # 6000 rpm = 628 rad/s: 1.26 rad a step at dt 2 ms, which the jitter's wrench cannot resolve
+    out = tmp_path / "jitter.rrd"
+    assert main(["run", "rotor_imbalance_jitter", "--out", str(out), "--set", "sim.dt_s=0.002",
+                 "--set", "sim.trace_period_s=0.002", "--set", "sim.estimator_period_s=0.002"]) == 2
+    assert not out.exists()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "sim.dt_s" in err[0] and "rotor speed" in err[0]

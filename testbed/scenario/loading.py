@@ -204,7 +204,8 @@ def parse(data: dict, source: str = "") -> Scenario:
 
 
 # Scenario blocks `testbed describe block` lists: their schema and the trace signals they add.
-SCENARIO_BLOCKS = {"orbit": (OrbitParams, ORBIT_SIGNALS), "environment": (EnvironmentParams, ENVIRONMENT_SIGNALS)}
+SCENARIO_BLOCKS = {"orbit": (OrbitParams, ORBIT_SIGNALS), "environment": (EnvironmentParams, ENVIRONMENT_SIGNALS),
+                   "accuracy": (AccuracySettings, ())}
 
 
 def _orbit_blocks(raw: _RawScenario, system_name: str) -> tuple:
