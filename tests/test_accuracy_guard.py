@@ -150,6 +150,8 @@ def test_a_soft_servo_that_lags_its_command_fails_the_tracking_guard(tmp_path):
     result = run_scenario(load_scenario("cmg_open_loop", overrides), None)
     row = guard_rows(result)["accuracy:tracking"]
     assert row["value"] == pytest.approx(lag.max(), rel=0.03) and not result.passed
+    relaxed = run_scenario(load_scenario("cmg_open_loop", overrides + ["accuracy.tracking_error_rel_max=0.25"]), None)
+    assert relaxed.passed  # the study wants this servo: it says so
     out = tmp_path / "soft.rrd"
     assert main(["run", "cmg_open_loop", "--out", str(out)] + [a for o in overrides for a in ("--set", o)]) == 1
     assert out.exists()
@@ -192,10 +194,10 @@ def test_no_false_positive_on_a_gym_episode():
     assert result.status == "ok" and not guard_rows(result)
 
 
-def test_the_jitter_relaxes_its_tracking_guard_explicitly():
-    assert run_scenario(load_scenario("rotor_imbalance_jitter"), None).passed  # accuracy.tracking_error_rel_max 0.5
-    strict = run_scenario(load_scenario("rotor_imbalance_jitter", ["accuracy.tracking_error_rel_max=0.05"]), None)
-    assert list(guard_rows(strict)) == ["accuracy:tracking"]  # no momentum monitor: the jitter is external
+def test_no_momentum_monitor_where_the_rotor_imbalance_pushes_the_bus():
+    result = run_scenario(load_scenario("rotor_imbalance_jitter"), None)
+    assert result.metrics["momentum_drift_rel"] > 1e-3  # the jitter's wrench is external (xfrc_applied)
+    assert result.passed and not guard_rows(result)
 
 
 def test_an_unbalanced_rotor_turning_too_far_a_step_is_refused(tmp_path, capsys):

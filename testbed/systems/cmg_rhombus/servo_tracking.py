@@ -11,8 +11,9 @@ gimbals leave rest for c(0), is one; so is a min-max flip or a noisy estimate's 
 feedforward servo's observer meets the disturbance that jump causes one tick late, and a jump
 of one gimbal shakes the others through the bus. Commands are clipped to the model's rate
 limit, and a gimbal whose fault (motor_off, rate_limit) stops it following is not judged.
-A command amplitude below SCALE_FLOOR (an idle cluster's round-off commands) is judged as
-that (docs/theory/accuracy.md, "The servo's tracking").
+A command amplitude below SCALE_FLOOR_RAD_S is judged as that: an idle cluster's round-off
+commands, or a zero command the servo holds on a tumbling bus against the gyroscopic torque
+(docs/theory/accuracy.md, "The servo's tracking").
 """
 
 from __future__ import annotations
@@ -23,7 +24,9 @@ import numpy as np
 
 from testbed.systems.cmg_rhombus.faults import FAULT_CODES
 
-SCALE_FLOOR_RAD_S = 1e-4  # 0.0057 deg/s: 5 % of it is a torque error of 5e-6 h
+# 0.57 deg/s, a twentieth of the shipped allocators' 10 deg/s: under it the default 5 % is a
+# miss of 5e-4 rad/s (the zero command on a bus tumbling at 0.5 deg/s is missed by 7e-6 rad/s)
+SCALE_FLOOR_RAD_S = 0.01
 NOT_FOLLOWING = (FAULT_CODES["motor_off"], FAULT_CODES["rate_limit"])
 
 
