@@ -78,6 +78,7 @@ class Plant:
         self._qvel = self.data.qvel
         self.record_energy = False  # the runner turns it on where no actuator does work
         self.surroundings = None  # the orbit and its torques (testbed.environment.surroundings), set by the runner
+        self.torqued = False  # whether a body torque (an external one) was ever applied
 
     # --- state -------------------------------------------------------------------------
     @property
@@ -183,6 +184,12 @@ class Plant:
         torque = command.get("body_torque")
         if torque is not None:
             self.bus.set_body_torque(self.data, torque)
+            self.torqued = True
+
+    def external_wrench(self) -> bool:
+        """Whether a force from outside the system acted on it (a body torque applied, the environment's
+        torques): then neither momentum nor energy is conserved (the accuracy guard reads it). A system adds its own."""
+        return self.torqued or (self.surroundings is not None and self.surroundings.params is not None)
 
     def description(self):
         """Static design data controllers may use (e.g. an actuator cluster's geometry)."""

@@ -17,6 +17,8 @@ import scipy.linalg  # noqa: F401  (loads SciPy's own OpenBLAS, so that threadpo
 from threadpoolctl import ThreadpoolController
 
 from testbed import metrics
+from testbed.accuracy import guard as accuracy_guard
+from testbed.accuracy.step_size import refuse_unresolved_step
 from testbed.recording import trace
 from testbed.references import registry as references_registry
 from testbed.systems import registry as systems_registry
@@ -119,6 +121,7 @@ def prepare(scenario, stages: dict | None = None):
         plant.surroundings = surroundings.prepare(scenario, plant)
         ctx = stage_context(scenario, plant.locked_inertia(), plant.description(), plant.actuator_state(),
                             plant.internal_momentum_body())
+    refuse_unresolved_step(scenario, plant)  # the accuracy guard's step-size check, before the stages
     with np.errstate(all="raise"):
         pipeline = Pipeline.from_config(scenario.stages, ctx, plant.actuators)
     output = getattr(pipeline.allocator, "output", None)
@@ -217,7 +220,8 @@ class RunInProgress:
             if getattr(reference, "signals", None) is None:
                 keep = None  # a reference that does not say what it reads sees everything
         self.keep_data = keep_data
-        self.reductions = Reductions(metrics.reductions(scenario))
+        self.monitors = accuracy_guard.Monitors(scenario, plant, pipeline)  # the accuracy guard's
+        self.reductions = Reductions(metrics.reductions(scenario) + self.monitors.reductions())
         self.status, self.error = "ok", None
         steps = self.n_ticks * self._per_tick
         footer = steps // self._trace_every <= trace.FOOTER_MAX_SAMPLES  # a long run: no footer (recording_to)
@@ -284,7 +288,7 @@ class RunInProgress:
                        self.plant.description(), self.momentum_scale, self.stream.reference_error,
                        reductions=self.reductions)
         values, why = metrics.compute_all(data) if recorder.count > 1 else ({}, {})
-        checks = metrics.evaluate_checks(scenario, values, why)
+        checks = metrics.evaluate_checks(scenario, values, why) + self.monitors.checks(scenario, values, data)
         error = self.error
         result = RunResult(scenario.name, recorder.last_time, 0.0, self.status, error and error_line(error),
                            values, checks, str(self.out) if self.out else None, data if self.keep_data else None,

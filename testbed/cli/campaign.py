@@ -201,6 +201,7 @@ def open_table(out: Path, name: str, data: dict, cases, args):
     there. Writes nothing; a folder the campaign could not finish in is refused (an output
     path of the wrong kind, a damaged table: testbed.campaign.table)."""
     from testbed.campaign.table import CampaignTable, fingerprint, merge_kinds
+    from testbed.accuracy.guard import CHECK_NAMES as GUARD_CHECKS
     from testbed.campaign.rows import STATUSES, expected_row, identity_cells
     from testbed.recording.output_paths import file_stem, output_path
 
@@ -210,7 +211,7 @@ def open_table(out: Path, name: str, data: dict, cases, args):
     columns: dict = {}
     for case in cases:
         merge_kinds(columns, expected_row(case, case.prepared["applied"], case.prepared["metrics"],
-                                          case.prepared["checks"]))
+                                          [*case.prepared["checks"], *GUARD_CHECKS]))  # a guard's cell: FAIL or empty
     identity = {"scenario": name, "set": list(args.set), "cases": len(cases), "fingerprint": fingerprint(data, cases)}
     table = CampaignTable(out, file_stem(name), columns, identity, {"status": STATUSES},
                           {case.index: identity_cells(case) for case in cases})

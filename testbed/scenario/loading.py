@@ -11,6 +11,7 @@ Layout (every key optional unless marked; units are in the key names, SI and rad
     pipeline: {sensor|estimator|law|allocator: {type: NAME, ...params}}   (testbed.pipeline)
     reference: {type: NAME, ...}    # an analytic model the truth is compared with
     checks: {METRIC: {max: X} | {min: X}}
+    accuracy: {enabled, step_angle_max_rad, ...}   # the accuracy guard's thresholds (testbed.accuracy.settings)
     sweep: {grid: {PATH: [values]}, dispersions: {PATH: {normal: [mean, sigma]}}, samples, seed}   (testbed.campaign.spec)
     orbit: {altitude_km | semi_major_axis_km | tle, ...}   (testbed.orbit.config; a free-flying system)
     environment: {gravity_gradient, drag, solar_pressure, magnetic_field, ...}   (testbed.environment.config)
@@ -40,6 +41,7 @@ from testbed.scenario.shipped_files import SCENARIO_DIR
 from testbed.campaign.spec import load_spec
 from testbed.environment.config import ENVIRONMENT_SIGNALS, EnvironmentParams
 from testbed.orbit.config import ORBIT_SIGNALS, OrbitParams
+from testbed.accuracy.settings import AccuracySettings
 
 
 
@@ -150,6 +152,7 @@ class _RawScenario:
     pipeline: dict[str, Any] = param({})
     reference: dict[str, Any] | None = None
     checks: dict[str, Any] = param({})      # each a CheckLimit, read once its metric is known
+    accuracy: AccuracySettings = field(default_factory=AccuracySettings)
     sweep: dict[str, Any] | None = None     # testbed.campaign.cases expands it; `run` ignores it
     orbit: dict[str, Any] | None = None     # testbed.orbit.config.OrbitParams
     environment: dict[str, Any] | None = None  # testbed.environment.config.EnvironmentParams
@@ -171,6 +174,7 @@ class Scenario:
     source: str = ""
     orbit: Any = None                       # OrbitParams, or None: no orbit
     environment: Any = None                 # EnvironmentParams, or None: no environment torque
+    accuracy: AccuracySettings = field(default_factory=AccuracySettings)  # the accuracy guard's thresholds
 
 
 def parse(data: dict, source: str = "") -> Scenario:
@@ -191,7 +195,7 @@ def parse(data: dict, source: str = "") -> Scenario:
     if raw.reference is not None:
         reference = references_registry.load_params(raw.reference, "reference")
     scenario = Scenario(raw.name, raw.description, system_name, model, raw.initial, raw.sim,
-                        stages, reference, {}, source, *_orbit_blocks(raw, system_name))
+                        stages, reference, {}, source, *_orbit_blocks(raw, system_name), raw.accuracy)
     # after the scenario exists (its metrics depend on it): first that each check names one of
     # them, then its limits, so that `checks.typo.max` is refused as a metric, not as a limit
     metrics.validate_checks(scenario, raw.checks)
@@ -200,7 +204,8 @@ def parse(data: dict, source: str = "") -> Scenario:
 
 
 # Scenario blocks `testbed describe block` lists: their schema and the trace signals they add.
-SCENARIO_BLOCKS = {"orbit": (OrbitParams, ORBIT_SIGNALS), "environment": (EnvironmentParams, ENVIRONMENT_SIGNALS)}
+SCENARIO_BLOCKS = {"orbit": (OrbitParams, ORBIT_SIGNALS), "environment": (EnvironmentParams, ENVIRONMENT_SIGNALS),
+                   "accuracy": (AccuracySettings, ())}
 
 
 def _orbit_blocks(raw: _RawScenario, system_name: str) -> tuple:

@@ -21,6 +21,7 @@ from testbed.systems.cmg_rhombus.gimbal_servo import FeedForwardServo, IntVeloci
 from testbed.systems.cmg_rhombus.model import GIMBAL_MOTORS, GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS
 from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel
 from testbed.systems.cmg_rhombus.rotor_imbalance import RotorImbalance
+from testbed.systems.cmg_rhombus.servo_tracking import ServoMiss, servo_miss
 from testbed.systems.cmg_rhombus.momentum_envelope import (remaining_cluster_surfaces, singular_surface_points,
                                                            surface_color, surface_name)
 
@@ -163,6 +164,32 @@ class CmgPlant(Plant):
         unbalanced = any(params.rotor_static_imbalance_kg_m) or any(params.rotor_dynamic_imbalance_kg_m2)
         self.imbalance = RotorImbalance(self.bus, model, self.data, params.rotor_static_imbalance_kg_m,
                                         params.rotor_dynamic_imbalance_kg_m2) if unbalanced else None
+        self.control_period, self.rate_limit = control_period, rate_limit
+
+    # --- what the accuracy guard reads (testbed/accuracy/) -------------------------------
+    def external_wrench(self) -> bool:
+        """Whether a force from outside the spacecraft acts: the environment's, or the unbalanced
+        rotors' jitter (applied to the bus as xfrc_applied, rotor_imbalance.py)."""
+        return super().external_wrench() or self.imbalance is not None
+
+    def step_rates(self) -> dict[str, float]:
+        """Rates [rad/s] whose angle a step must resolve, known before the run: the rotor speed of
+        unbalanced rotors (the jitter's wrench turns with the rotor angle; a balanced rotor's angle
+        enters no equation) and the gimbal-rate limit, when set."""
+        rates = {}
+        if self.imbalance is not None:
+            rates["rotor speed of the unbalanced rotors"] = float(np.max(np.abs(self.bus.rotor_rates(self.data))))
+        if self.rate_limit is not None:
+            rates["gimbal rate limit"] = float(np.max(self.rate_limit))
+        return rates
+
+    def tracking_monitor(self, command_key: str | None):
+        """(reduction, figure(state), what it is) of the gimbal servo's miss (servo_tracking.py)
+        when the allocator commands gimbal rates, else None."""
+        if command_key != "gimbal_rates":
+            return None
+        return (ServoMiss(self.control_period, self.rate_limit), servo_miss,
+                "the gimbal servo missed its held command, beyond the jumps it was handed, by")
 
     def step(self, nstep: int) -> None:
         """`nstep` physics steps; with rotor imbalance, its wrench renewed before each (rotor_imbalance.py)."""
