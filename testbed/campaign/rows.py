@@ -69,6 +69,7 @@ def run_case(case: Case, rrd: str | None = None, raises: tuple[type[BaseExceptio
     """Run one case (its trace to `rrd` if given) and return its row (see module doc); an
     exception of `raises` goes to the caller instead (`--case N`: a trace that could not be
     written is its command's failure, not a row)."""
+    from testbed.accuracy.guard import CHECK_NAMES as GUARD_CHECKS
     from testbed.campaign.applied_values import applied_values, check_applied
     from testbed.runner import run_scenario
     from testbed.scenario.loading import parse
@@ -91,6 +92,8 @@ def run_case(case: Case, rrd: str | None = None, raises: tuple[type[BaseExceptio
                         error_line(f"{described(exc)} ({Path(last.filename).name}:{last.lineno})"),
                         time.perf_counter() - wall0)
     checks = {f"check:{c['name']}": "pass" if c["passed"] else "FAIL" for c in result.checks}
+    for name in GUARD_CHECKS:  # every row has the guard's columns, as the table does (empty: not judged)
+        checks.setdefault(f"check:{name}", "")
     return case_row(case, applied, result.status, result.passed, result.error or "", result.wall_s,
                     result.metrics | checks)
 
