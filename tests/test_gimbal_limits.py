@@ -127,4 +127,9 @@ def test_no_shipped_scenario_exceeds_imposed_gimbal_limits(name):
     assert m["gimbal_angle_limit_violations"] == 0 and m["gimbal_acceleration_violations"] == 0
     assert m["rate_limit_violations"] == 0
     assert m["peak_gimbal_acceleration_deg_s2"] <= 100 * (1 + 1e-9)
-    assert m["min_gimbal_angle_margin_deg"] > -0.01  # the measured angle: servo compliance only
+    # the measured angle: the servo's compliance (intvelocity), or, for the feedforward servo, which
+    # reaches each command only at the end of its tick, a lag of half a tick per rate change: through
+    # a stop's braking, at most beta'max Tc / 2 (measured 0.16 deg at 10 deg/s, 0.11 deg at 30 deg/s)
+    lag = (scenario.stages["allocator"][1].beta_rate_max_deg_s * scenario.sim.control_period_s / 2
+           if scenario.model.servo_model == "feedforward" else 0.0)
+    assert m["min_gimbal_angle_margin_deg"] > -0.01 - lag
