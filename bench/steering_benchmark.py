@@ -85,26 +85,29 @@ def wanted_momentum(case: dict, t) -> np.ndarray:
     return (case["fraction"] * case["radius"] * 4 * tau * (1 - tau))[..., None] * np.asarray(case["direction"])
 
 
-def wanted_momentum_rate(case: dict, t) -> np.ndarray:
-    """H_w'(t) = r d 4 (1 - 2 tau) / T [h/s] inside the slew."""
-    tau = float(np.clip(t / DURATION_S, 0.0, 1.0))
-    return case["fraction"] * case["radius"] * 4 * (1 - 2 * tau) / DURATION_S * np.asarray(case["direction"])
+def planned_path(case: dict, geo: ClusterGeometry, step_s: float = 0.1):
+    """The plan of testbed.steering.planned_path for the case's H_w(t) = s(t) d (0.1 s steps), its reconfiguration
+    at rest within PRESLEW_S at the rate limit; None when refused."""
+    times = np.linspace(0.0, DURATION_S, int(round(DURATION_S / step_s)) + 1)
+    rate_max = np.radians(RATE_MAX_DEG_S)
+    return plan_gimbal_path(lambda beta: geo.momentum(beta) / geo.h, geo.unit_jacobian, np.radians(START_SETS_DEG[case["start"]]),
+                            case["direction"], times, wanted_momentum(case, times) @ np.asarray(case["direction"]),
+                            rate_max, reconfiguration_travel=rate_max * PRESLEW_S)
 
 
 def fly(law: str, case: dict, geo: ClusterGeometry | None = None, duration_s: float = DURATION_S,
-        dt: float = DT_S) -> dict:
-    """One law on one case (module doc): its figures. `planned` plans the path before the slew
-    (planned_path.plan_gimbal_path) and tracks it with pga's null motion towards the plan's next
-    angles (gain 1/dt); a refused plan is not flown and counts as not exact."""
+        dt: float = DT_S, history: bool = False) -> dict:
+    """One law on one case (module doc): its figures, and with `history` the flown angles at every step
+    ("angles", (steps + 1, 4)). `planned` plans the path before the slew (planned_path) and tracks it
+    with pga's null motion towards the plan's next angles (gain 1/dt); a refused plan is not flown and
+    counts as not exact."""
     geo = geo or geometry()
     rate_max = np.radians(RATE_MAX_DEG_S)
     beta = np.radians(START_SETS_DEG[case["start"]])
     plan = None
     if law == PLANNED:
-        plan = plan_gimbal_path(geo.unit_jacobian, beta, lambda t: wanted_momentum_rate(case, t), DURATION_S,
-                                rate_max)
-        # refused, or its reconfiguration before the slew (null motion at rest) takes more than PRESLEW_S
-        if plan is None or np.abs(plan.angles[0] - beta).max() > rate_max * PRESLEW_S:
+        plan = planned_path(case, geo)
+        if plan is None:
             return {"law": law, "fraction": case["fraction"], "peak_h": case["fraction"] * case["radius"],
                     "torque_error_rel": np.nan, "min_singularity_measure": np.nan, "peak_gimbal_rate_deg_s": 0.0,
                     "final_momentum_error_h": np.nan, "near_singular_s": 0.0, "exact": False, "refused": True}
@@ -121,7 +124,7 @@ def fly(law: str, case: dict, geo: ClusterGeometry | None = None, duration_s: fl
     times = dt * np.arange(steps + 1)
     wanted = wanted_momentum(case, times)
     program_rate = np.abs(np.diff(wanted, axis=0) / dt).max() if steps else 0.0
-    peak, error, lowest, near = 0.0, 0.0, np.inf, 0
+    peak, error, lowest, near, flown = 0.0, 0.0, np.inf, 0, [beta]
     for k in range(steps):
         J = geo.unit_jacobian(beta)
         b = (wanted[k + 1] - geo.momentum(beta)) / dt
@@ -142,9 +145,10 @@ def fly(law: str, case: dict, geo: ClusterGeometry | None = None, duration_s: fl
         lowest = min(lowest, result.singularity_measure)
         near += result.singularity_measure < NEAR
         beta = beta + dt * result.beta_rate
+        flown.append(beta)
     lowest = min(lowest, geo.singularity_measure(beta))
     torque_error = error / max(program_rate * np.sqrt(3), 1e-300)
-    return {"law": law, "fraction": case["fraction"], "peak_h": case["fraction"] * case["radius"],
+    return ({"angles": np.array(flown)} if history else {}) | {"law": law, "fraction": case["fraction"], "peak_h": case["fraction"] * case["radius"],
             "torque_error_rel": torque_error, "min_singularity_measure": lowest,
             "peak_gimbal_rate_deg_s": float(np.degrees(peak)),
             "final_momentum_error_h": float(np.linalg.norm(geo.momentum(beta) - wanted[-1])),

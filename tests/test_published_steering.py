@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from rerun.chunk import RrdReader
 
 import testbed
 from testbed.steering import steer
@@ -121,11 +122,12 @@ def test_bedrossian_test_on_the_rhombus_singular_states(signs, kind, sign_b):
     np.testing.assert_allclose(found.eigenvalues, np.sort(expected), atol=1e-9)
 
 
-def test_the_stage_records_the_singularity_type_near_a_singular_set():
+def test_the_stage_records_the_singularity_type_near_a_singular_set(tmp_path):
     # reorient_near_singular with min-max comes within 1e-3 of a singular set (docs/theory/steering.md):
     # below classify_below the trace holds the kind and a unit u normal to every column of J.
-    result = testbed.run("reorient_near_singular", overrides=["sim.duration_s=40",
-                                                                "pipeline.allocator.classify_below=0.2"])
+    out = tmp_path / "near.rrd"
+    result = testbed.run("reorient_near_singular", out=out, overrides=["sim.duration_s=40",
+                                                                         "pipeline.allocator.classify_below=0.2"])
     _, kind = result.trace["allocator/singularity_type"]
     _, direction = result.trace["allocator/singular_direction"]
     _, measure = result.trace["allocator/singularity"]
@@ -137,6 +139,21 @@ def test_the_stage_records_the_singularity_type_near_a_singular_set():
     columns = geo.unit_jacobian(beta[:len(near)][near])  # the angles each command was computed at
     # u is the left singular vector of the smallest singular value: |u^T J| = s3 <= sqrt det / s1 s2
     assert np.abs(np.einsum("ki,kij->kj", direction[near], columns)).max() < 0.2
+    # the momentum view marks the path's H at exactly the samples of each kind (read back from the .rrd)
+    _, momentum = result.trace["truth/cmg_momentum"]
+    marked = {}
+    for chunk in RrdReader(str(out)).stream():
+        entity = str(chunk.entity_path)
+        if entity.startswith("/momentum_space/singular/"):
+            batch = chunk.to_record_batch()
+            if "Points3D:positions" in batch.schema.names:
+                name = entity.split("/")[3]
+                marked.setdefault(name, []).extend(batch.column("Points3D:positions").to_pylist()[0])
+    names = {HYPERBOLIC: "hyperbolic", ELLIPTIC: "elliptic", DEGENERATE: "degenerate"}
+    assert set(marked) == {names[int(k)] for k in np.unique(kind[near, 0])} and {"hyperbolic", "elliptic"} <= set(marked)
+    for code, name in names.items():
+        rows = momentum[:len(kind)][kind[:, 0] == code]
+        np.testing.assert_allclose(np.array(marked.get(name, np.zeros((0, 3)))).reshape(-1, 3), rows, rtol=1e-6, atol=1e-9)
 
 
 @pytest.mark.parametrize("law", ["osr", "sda", "pga"])

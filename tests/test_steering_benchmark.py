@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from rhombus_reference import rhombus_jacobian, rhombus_momentum
 
 SCRIPT = Path(__file__).resolve().parents[1] / "bench" / "steering_benchmark.py"
 
@@ -59,31 +60,43 @@ def test_every_law_flies_the_small_sample(bench, tmp_path):
     assert bench.write_plot(tmp_path / "plot.rrd", rows, bench.LAWS).stat().st_size > 0
 
 
-def test_null_vector_is_normal_to_the_columns_with_the_cauchy_binet_length():
-    from testbed.steering.planned_path import null_vector
-    rng = np.random.default_rng(0)
-    for _ in range(5):
-        J = rng.normal(size=(3, 4))
-        n = null_vector(J)
-        assert np.abs(J @ n).max() < 1e-12 * np.abs(J).max() ** 3
-        assert np.linalg.norm(n) == pytest.approx(np.sqrt(np.linalg.det(J @ J.T)), rel=1e-10)
+def test_null_vectors_are_normal_to_the_columns_with_the_cauchy_binet_length():
+    from testbed.steering.momentum_fibres import null_vectors
+    J = np.random.default_rng(0).normal(size=(5, 3, 4))
+    n = null_vectors(J)  # the stack at once
+    for Jk, nk in zip(J, n):
+        assert np.abs(Jk @ nk).max() < 1e-12 * np.abs(Jk).max() ** 3
+        assert np.linalg.norm(nk) == pytest.approx(np.sqrt(np.linalg.det(Jk @ Jk.T)), rel=1e-10)
 
 
-def test_reconfiguration_follows_the_rhombus_zero_momentum_line(bench):
+def test_the_zero_momentum_fibre_is_traced_along_the_rhombus_line_to_its_singular_ends(bench):
     # By hand: through (45, -45, -45, 45) deg the rhombus's zero-momentum fibre is the straight line
-    # beta0 + s (1, -1, -1, 1) / 2 (units 1, 3 and 2, 4 cancel pairwise along it): moving s of arc along
-    # it keeps H = 0 and lands on that line (RK2 on a straight line: round-off only).
-    from testbed.steering.planned_path import reconfigured
-    geo = bench.geometry()
+    # beta0 + s (1, -1, -1, 1) / 2 (units 1, 3 and 2, 4 cancel pairwise along it), singular at s = pi/2
+    # (every spin along +-z, the torque axes in the xy-plane) and at s = -pi/2 (beta = 0, every torque
+    # axis along z). The traced arc keeps H = 0 on that line, its samples one spacing apart, and stops
+    # at the last sample before sqrt det (the reference formula) falls below the floor 0.05.
+    from testbed.steering.momentum_fibres import trace_chain
+    geo, spacing, floor = bench.geometry(), np.radians(3.0), 0.05
     start = np.radians(bench.START_SETS_DEG[0])
-    moved, on_the_way = reconfigured(geo.unit_jacobian, start, 0.8)
-    direction = np.array([1.0, -1.0, -1.0, 1.0]) / 2
-    assert np.abs(np.abs((moved - start) @ direction) - 0.8) < 1e-6
-    assert np.linalg.norm(moved - start - ((moved - start) @ direction) * direction) < 1e-6
-    assert np.abs(geo.momentum(moved)).max() < 1e-9 and on_the_way.min() > 0.4
-    # 90 deg of arc along the line is a singular set (units pairwise antiparallel): the way past it
-    # dips below the plan's floor 0.05 (its samples are 0.025 rad apart, |dm/ds| ~ 1.9 there)
-    assert reconfigured(geo.unit_jacobian, start, np.pi / 2 + 0.01)[1].min() < 0.05
+    arc, at_start = trace_chain(geo.momentum, geo.unit_jacobian, start, np.zeros(3), spacing, floor, 100.0)
+    line = np.array([1.0, -1.0, -1.0, 1.0]) / 2
+    offset = np.angle(np.exp(1j * (arc - start)))
+    s = offset @ line
+    assert np.abs(offset - np.outer(s, line)).max() < 1e-9 and abs(s[at_start]) < 1e-12
+    assert np.abs(rhombus_momentum(arc, bench_alpha(bench))).max() < 1e-9
+    assert np.diff(s) == pytest.approx(np.full(len(s) - 1, spacing), rel=1e-6)
+    for end, beyond in ((s[0], s[0] - spacing), (s[-1], s[-1] + spacing)):
+        assert -np.pi / 2 < end < np.pi / 2  # short of the singular sets
+        assert reference_measure(start + end * line, bench) >= floor > reference_measure(start + beyond * line, bench)
+
+
+def bench_alpha(bench) -> float:
+    return np.radians(bench.ALPHA_DEG)
+
+
+def reference_measure(beta, bench) -> float:
+    J = rhombus_jacobian(beta, bench_alpha(bench))
+    return float(np.sqrt(max(np.linalg.det(J @ J.T), 0.0)))
 
 
 # Case 203 of the default benchmark (seed 29, --sweep 12): f = 0.80 of the envelope, start set 0.
@@ -105,8 +118,33 @@ def test_the_planned_path_flies_an_outer_band_slew_that_pinv_cannot(bench):
 def test_the_planner_refuses_a_program_beyond_the_envelope(bench):
     # 1.05 of the envelope's radius along d: no gimbal state holds the peak (the envelope is the
     # boundary of the momenta the cluster holds, momentum_gauge.py), so no path exists.
-    from testbed.steering.planned_path import plan_gimbal_path
-    geo, case = bench.geometry(), dict(OUTER_CASE, fraction=1.05)
-    start = np.radians(bench.START_SETS_DEG[0])
-    assert plan_gimbal_path(geo.unit_jacobian, start, lambda t: bench.wanted_momentum_rate(case, t),
-                            bench.DURATION_S, np.radians(bench.RATE_MAX_DEG_S), max_evaluations=40) is None
+    assert bench.planned_path(dict(OUTER_CASE, fraction=1.05), bench.geometry()) is None
+
+
+# Case 131 of the default benchmark: f = 0.878 of the envelope from start set 0, which the former planner
+# (a start offset and four null-motion knots, Powell) refused.
+REFUSED_BEFORE = {"direction": [0.13180176939299712, 0.43553329948384895, 0.8904712452547735],
+                  "fraction": 0.8781082923399074, "start": 0, "radius": 3.732797493922585}
+
+
+def test_the_global_plan_flies_a_slew_the_local_search_refused(bench):
+    # The plan and the flown path are checked with the reference formulas (eq. 15, 18), not the project's:
+    # the plan lies on H(beta) = s(t) d, within 30 deg/s between its steps; the flight with exact torque
+    # on the residual keeps H(beta_k) on the program H_w(t_k) up to one step's second-order term (each
+    # unit's h_i moves off its tangent by (beta' dt)^2 / 2: at most 4 (beta'max dt)^2 / 2 = 1.4e-3 h for
+    # 30 deg/s and dt = 0.05 s; the next step's feedback takes it out, so it does not add up) and
+    # sqrt(det(J J^T)) >= 0.05 throughout.
+    geo, case = bench.geometry(), REFUSED_BEFORE
+    alpha = bench_alpha(bench)
+    plan = bench.planned_path(case, geo)
+    assert plan is not None
+    on_line = rhombus_momentum(plan.angles, alpha) - bench.wanted_momentum(case, plan.times)
+    assert np.abs(on_line).max() < 1e-8
+    rates = np.abs(np.diff(plan.angles, axis=0)).max(axis=-1) / np.diff(plan.times)
+    assert rates.max() <= np.radians(bench.RATE_MAX_DEG_S)
+    flown = bench.fly("planned", case, geo, history=True)
+    assert flown["exact"] and not flown["refused"]
+    times = bench.DT_S * np.arange(len(flown["angles"]))
+    drift = np.linalg.norm(rhombus_momentum(flown["angles"], alpha) - bench.wanted_momentum(case, times), axis=-1)
+    assert drift.max() < 4 * (np.radians(bench.RATE_MAX_DEG_S) * bench.DT_S) ** 2 / 2
+    assert min(reference_measure(beta, bench) for beta in flown["angles"]) >= 0.05

@@ -97,6 +97,17 @@ def extent(space: dict) -> float:
                 for s in space["surfaces"] if len(s["points"])), default=1.0)
 
 
+def write_marks(rec, marks: dict, path: np.ndarray, codes: np.ndarray, index: int, radius: float) -> None:
+    """The path's samples where the recorded code signal is one of marks["kinds"] {code: {name, color}}, one
+    static point set a kind and chunk: `momentum_space/<marks["entity"]>/<name>/<index>`."""
+    codes = np.asarray(codes, float).reshape(len(path), -1)[:, 0]
+    for code, kind in marks["kinds"].items():
+        met = codes == float(code)
+        if met.any():
+            rec.log(f"{MOMENTUM_SPACE}/{marks['entity']}/{kind['name']}/{index}",
+                    rr.Points3D(path[met], colors=[kind["color"]], radii=radius), static=True)
+
+
 def measure_colors(values: np.ndarray, value_range) -> np.ndarray:
     """RGB (N, 3) for values over [low, high]: red at low, yellow half way, green at high."""
     low, high = value_range

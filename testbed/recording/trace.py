@@ -14,7 +14,8 @@ A plant's scene may add (testbed.recording.scene builds them from the compiled m
 - `momentum_space`: a second 3D view at `momentum_space/`: point-cloud `surfaces` (name, points
   (m, 3), color), the recorded `path` signal as `momentum_space/path/<k>` (one strip a chunk,
   segments coloured by the recorded `measure` over `measure_range`: red low, green high) and
-  its current value as `momentum_space/now`.
+  its current value as `momentum_space/now`; optional `marks` {signal, entity, kinds {code: {name, color}}}:
+  the path's samples where the code signal holds a kind, as points at `momentum_space/<entity>/<name>/<k>`.
 """
 
 from __future__ import annotations
@@ -33,7 +34,8 @@ from testbed.recording.blueprint import RESULT_ENTITY, UNITS, blueprint, series_
 from testbed.recording.decimation import block_starts, minmax_decimate
 from testbed.recording.rrd_file import FileStream
 from testbed.recording.orbit_drawing import ORBIT_SIGNAL, write_orbit, write_orbit_static
-from testbed.recording.scene_drawing import MOMENTUM_SPACE, extent, measure_colors, write_scene, write_scene_static
+from testbed.recording.scene_drawing import (MOMENTUM_SPACE, extent, measure_colors, write_marks, write_scene,
+                                             write_scene_static)
 
 APP_ID = "gyrodyne-testbed"
 TIMELINE = "sim_time"
@@ -133,6 +135,9 @@ class TraceWriter:
                                          radii=2.0 * radius), static=True)
             self.strips += 1
         self.path_end = path[-1:]
+        marks = space.get("marks")
+        if marks is not None and marks["signal"] in chunk.signals:
+            write_marks(self.rec, marks, path, chunk.signals[marks["signal"]], self.strips, 5.0 * radius)
         self.rec.send_columns(f"{MOMENTUM_SPACE}/now", indexes=[times],
                               columns=rr.Points3D.columns(positions=path, colors=colors,
                                                           radii=np.full(len(path), 6.0 * radius)))

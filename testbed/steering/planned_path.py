@@ -1,25 +1,25 @@
-"""A gimbal path planned before the slew for a known momentum program H_w(t) (docs/theory/steering.md
-"Planned paths").
+"""A gimbal path planned before the slew for a momentum program along one line, H_w(t) = s(t) d
+(docs/theory/steering.md "Planned paths").
 
 A law that sees only the present gimbal angles must fail somewhere in the outer band of the envelope
 (elliptic singular states, singularity_type.py); one that knows H_w(t) ahead can choose, before the
-slew, where on each null-motion fibre H(beta) = H_w(t) the gimbals should be. The plan is the path
+slew, where on each fibre F(s) = {beta : H(beta) = s d} the gimbals should be. The plan is a global
+search over the surface the fibres sweep for 0 <= s <= s_max (momentum_fibres.py):
 
-    beta' = J^+(beta) H_w'(t) / h + c(t) n(beta) / |n(beta)|,                                (1)
-
-n the null vector of the 3x4 J with n_i = (-1)^i det(J without column i) (smooth in beta, and
-|n| = sqrt(det(J J^T)) by Cauchy-Binet), c(t) the null-motion rate [rad/s], piecewise linear over
-`knots` values, flown from the start set moved first by s [rad] along its null-motion fibre
-(eq. (1) with H_w' = 0 and c = s over 1 s: null motion at rest, the reconfiguration Vadali's
-preferred gimbal angles make before a manoeuvre, preferred_gimbal_angles.py). s is first chosen on a
-grid of `offsets` with c = 0, then (s, c) by scipy.optimize.minimize (Powell) to minimise
-
-    sum_k dt [ (max(0, m_target - m_k) / m_target)^2 + (max(0, max_i |beta'_i| / beta'max - 1))^2 ]
-        + 1e-4 sum_j (c_j / beta'max)^2,                                                     (2)
-
-m = sqrt(det(J J^T)) along the path (RK2 steps of `plan_dt`) and along the reconfiguration. The plan is refused (None) when its
-smallest m is below `measure_floor` or its peak rate above beta'max: no path of the family (1) flies
-the program within the limits, and the caller must say so before the slew.
+- levels s_k = k s_max / L, k = 0..L; level 0 is the start's own fibre arc, as far as null motion at
+  rest reaches in the rest before the slew (`reconfiguration_travel` [rad], the sum of each step's
+  largest angle change); every other level is carried up from the one below (momentum_fibres.next_level);
+- a graph: sample i of level k links to every sample j of level k + 1 with
+  max_g |beta_j - beta_i| <= margin beta'max dt_k (and at most `link_radius`), dt_k the least time the
+  program spends between s_k and s_(k+1) (its largest |s'| there), so the linear path between them
+  keeps every gimbal rate below margin beta'max; a sample weighs m = sqrt(det(J J^T));
+- the widest path (Pollack 1960, the maximum-capacity route; here a sweep level by level, the graph
+  being layered): the largest bottleneck m* = max over paths of the smallest m on them, from the start
+  along its arc to the top level; among the paths whose samples keep m >= min(m*, m_target), the one of
+  least gimbal travel (Euclidean, the arc at rest included) by a second sweep;
+- beta(t) = the path at s(t) (linear between levels, Newton back onto H = s(t) d), the same path down
+  as up, so any program with 0 <= s(t) <= s_max is flown. Refused (None) when m* < measure_floor, when
+  no sample reaches s_max, or when the timed path's smallest m or peak rate misses the floor or beta'max.
 """
 
 from __future__ import annotations
@@ -27,102 +27,153 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import minimize
+from scipy.spatial import cKDTree
+
+from testbed.steering.momentum_fibres import TAU, difference, measures, next_level, onto_level, trace_chain, wrapped
 
 M_TARGET, MEASURE_FLOOR = 0.3, 0.05
 
 
 @dataclass(slots=True)
 class PlannedPath:
-    """times (K+1,), angles (K+1, n) of the plan, its smallest sqrt(det J J^T) and peak rate [rad/s]."""
+    """times (K+1,) [s], angles (K+1, n) [rad] of the plan; reconfiguration (m, n): the start's fibre arc
+    from the start to angles[0], flown at rest before the slew; its smallest sqrt(det J J^T), peak
+    rate [rad/s] and the bottleneck m* of the search."""
 
     times: np.ndarray
     angles: np.ndarray
+    reconfiguration: np.ndarray
     min_measure: float
     peak_rate: float
+    bottleneck: float
 
     def at(self, t: float) -> np.ndarray:
         """The planned angles at time t (linear between the plan's steps, held past its ends)."""
         return np.array([np.interp(t, self.times, column) for column in self.angles.T])
 
+    def reconfigured_at(self, fraction: float) -> np.ndarray:
+        """The angles `fraction` (0..1) of the way along the reconfiguration, by travel (largest angle change)."""
+        steps = np.abs(np.diff(self.reconfiguration, axis=0)).max(axis=-1) if len(self.reconfiguration) > 1 else []
+        travel = np.concatenate([[0.0], np.cumsum(steps)])
+        if travel[-1] == 0.0:
+            return self.reconfiguration[-1].copy()
+        where = float(np.clip(fraction, 0.0, 1.0)) * travel[-1]
+        return np.array([np.interp(where, travel, column) for column in self.reconfiguration.T])
 
-def null_vector(J: np.ndarray) -> np.ndarray:
-    """n_i = (-1)^i det(J without column i) for a 3x4 J: J n = 0 and |n| = sqrt(det(J J^T))."""
-    return np.array([(-1) ** i * np.linalg.det(np.delete(J, i, axis=1)) for i in range(J.shape[1])])
-
-
-def _rates(jacobian, beta, hdot, c):
-    J = jacobian(beta)
-    n = null_vector(J)
-    measure = float(np.linalg.norm(n))
-    if measure < 1e-6:
-        return None, measure
-    return J.T @ np.linalg.solve(J @ J.T, hdot) + c * n / measure, measure
-
-
-def integrate_path(jacobian, start, momentum_rate, duration: float, null_rates, plan_dt: float):
-    """RK2 (midpoint) of eq. (1) with c(t) piecewise linear through `null_rates` over [0, duration]:
-    (times, angles, measures, peak rate), cut where sqrt(det) < 1e-6 (then the measures end at 0)."""
-    steps = max(1, int(round(duration / plan_dt)))
-    times = np.linspace(0.0, duration, steps + 1)
-    knots = np.linspace(0.0, duration, len(null_rates))
-    c = lambda t: float(np.interp(t, knots, null_rates))  # noqa: E731
-    dt = times[1] - times[0]
-    angles, measures, peak = [np.array(start, float)], [], 0.0
-    for t in times[:-1]:
-        k1, m1 = _rates(jacobian, angles[-1], momentum_rate(t), c(t))
-        if k1 is None:
-            return times[:len(angles)], np.array(angles), np.array([*measures, 0.0]), np.inf
-        mid = angles[-1] + 0.5 * dt * k1
-        k2, m2 = _rates(jacobian, mid, momentum_rate(t + 0.5 * dt), c(t + 0.5 * dt))
-        if k2 is None:
-            return times[:len(angles)], np.array(angles), np.array([*measures, m1, 0.0]), np.inf
-        measures += [m1, m2]
-        peak = max(peak, float(np.abs(k1).max()), float(np.abs(k2).max()))
-        angles.append(angles[-1] + dt * k2)
-    measures.append(float(np.linalg.norm(null_vector(jacobian(angles[-1])))))
-    return times, np.array(angles), np.array(measures), peak
+    @property
+    def travel_at_rest(self) -> float:
+        """The reconfiguration's travel [rad]: the sum of each step's largest angle change."""
+        return float(np.abs(np.diff(self.reconfiguration, axis=0)).max(axis=-1).sum()) if len(self.reconfiguration) > 1 else 0.0
 
 
-def reconfigured(jacobian, start, offset: float) -> tuple[np.ndarray | None, np.ndarray]:
-    """The start angles moved by `offset` [rad] of arc along their null-motion fibre (module doc),
-    and sqrt(det(J J^T)) along the way (RK2 samples 0.025 rad apart); None for the angles when the
-    integration stops at sqrt det < 1e-6. The plan refuses a way whose samples fall below its floor."""
-    if offset == 0.0:
-        return np.array(start, float), np.array([float(np.linalg.norm(null_vector(jacobian(start))))])
-    steps = max(1, int(np.ceil(abs(offset) / 0.05)))  # RK2 steps of at most 0.05 rad
-    times, angles, measures, _ = integrate_path(jacobian, start, lambda t: np.zeros(3), 1.0, [offset, offset],
-                                                1.0 / steps)
-    return (angles[-1] if times[-1] >= 1.0 - 1e-9 else None), measures
+def least_times(times: np.ndarray, levels_of_time: np.ndarray, level_values: np.ndarray) -> np.ndarray:
+    """dt_k = (s_(k+1) - s_k) / max |s'| over the program's steps that cross [s_k, s_(k+1)]: the least time
+    between the levels, on the way up or down (inf for an interval the program never crosses)."""
+    ds = level_values[1] - level_values[0]
+    slope = np.abs(np.diff(levels_of_time)) / np.diff(times)
+    low = np.minimum(levels_of_time[:-1], levels_of_time[1:])
+    high = np.maximum(levels_of_time[:-1], levels_of_time[1:])
+    first = np.clip(np.floor(low / ds).astype(int), 0, len(level_values) - 2)
+    last = np.clip(np.ceil(high / ds).astype(int) - 1, 0, len(level_values) - 2)
+    fastest = np.zeros(len(level_values) - 1)
+    for a, b, v in zip(first, last, slope):
+        fastest[a:b + 1] = np.maximum(fastest[a:b + 1], v)
+    return np.where(fastest > 0, ds / np.maximum(fastest, 1e-300), np.inf)
 
 
-def plan_gimbal_path(jacobian, start, momentum_rate, duration: float, rate_max: float, *, knots: int = 4,
-                     plan_dt: float = 0.5, m_target: float = M_TARGET, measure_floor: float = MEASURE_FLOOR,
-                     offsets=np.linspace(-1.5, 1.5, 31), max_evaluations: int = 150) -> PlannedPath | None:
-    """The plan of the module doc for the unit-h Jacobian `jacobian(beta)`, the start angles and the
-    program's H_w'(t)/h (`momentum_rate(t)`, 3-vector) over [0, duration]; None when refused.
-    The plan's first angles are the reconfigured start (PlannedPath.angles[0])."""
-    def cost(values, full=False):
-        first, on_the_way = reconfigured(jacobian, start, float(values[0]))
-        if first is None:  # the reconfiguration meets a singular set
-            return (np.zeros(1), np.array([start]), np.zeros(1), np.inf) if full else 1e3
-        times, angles, measures, peak = integrate_path(jacobian, first, momentum_rate, duration, values[1:], plan_dt)
-        measures = np.concatenate([on_the_way, measures])
-        if full:
-            return times, angles, measures, peak
-        lost = duration - times[len(angles) - 1]  # time left after an integration cut at a singular set
-        shortfall = np.maximum(0.0, m_target - measures) / m_target
-        excess = max(0.0, peak / rate_max - 1.0) if np.isfinite(peak) else 10.0
-        return (plan_dt * float(np.sum(shortfall ** 2)) / 2 + duration * excess ** 2 + 10.0 * lost
-                + 1e-4 * float(np.sum((np.asarray(values) / rate_max) ** 2)))
+def _links(lower: np.ndarray, upper: np.ndarray, radius: float):
+    """(i, j, Euclidean travel) for every pair of samples with max_g |upper_j - lower_i| <= radius (on the torus)."""
+    pairs = cKDTree(lower, boxsize=TAU).sparse_distance_matrix(cKDTree(upper, boxsize=TAU), radius, p=np.inf,
+                                                                  output_type="ndarray")
+    i, j = pairs["i"].astype(int), pairs["j"].astype(int)
+    return i, j, np.linalg.norm(difference(upper[j], lower[i]), axis=-1)
 
-    values = np.zeros(knots + 1)
-    values[0] = min(offsets, key=lambda s: cost(np.concatenate([[s], values[1:]])))
-    times, angles, measures, peak = cost(values, full=True)
-    if not (measures.min() >= m_target and peak <= rate_max):
-        found = minimize(cost, values, method="Powell",
-                         options={"maxfev": max_evaluations, "xtol": 1e-3, "ftol": 1e-6})
-        times, angles, measures, peak = cost(found.x, full=True)
-    if times[-1] < duration * (1 - 1e-9) or measures.min() < measure_floor or peak > rate_max:
+
+def plan_gimbal_path(momentum, jacobian, start, direction, times, levels_of_time, rate_max: float, *,
+                     reconfiguration_travel: float, levels: int = 60, spacing: float = np.radians(3.0),
+                     link_radius: float = 0.3, rate_margin: float = 0.9, m_target: float = M_TARGET,
+                     measure_floor: float = MEASURE_FLOOR) -> PlannedPath | None:
+    """The plan of the module doc for the cluster's unit-h `momentum(B)` and `jacobian(B)` (stacked angles),
+    the start angles (on H = s(0) d), the unit `direction` d and the program's s(t) [h] at `times` [s];
+    None when refused. Angles in the plan run on continuously from the start (not wrapped)."""
+    start, direction = np.asarray(start, float), np.asarray(direction, float)
+    times, levels_of_time = np.asarray(times, float), np.asarray(levels_of_time, float)
+    s_max = float(levels_of_time.max())
+    values = np.linspace(0.0, s_max, levels + 1)
+    dt = least_times(times, levels_of_time, values)
+
+    arc, at_start = trace_chain(momentum, jacobian, start, levels_of_time[0] * direction, spacing, measure_floor,
+                                reconfiguration_travel)
+    arc_measure = measures(jacobian, arc)
+    bottleneck = np.full(len(arc), -np.inf)  # the smallest m on the way from the start along the arc
+    for way in (range(at_start, len(arc)), range(at_start, -1, -1)):
+        bottleneck[list(way)] = np.minimum.accumulate(arc_measure[list(way)])
+    travel = np.zeros(len(arc))
+    for way in (range(at_start, len(arc)), range(at_start, -1, -1)):
+        way = list(way)
+        steps = np.linalg.norm(difference(arc[way[1:]], arc[way[:-1]]), axis=-1)
+        travel[way] = np.concatenate([[0.0], np.cumsum(steps)])
+
+    nodes, weights, links = [arc], [arc_measure], []
+    chains = [arc]
+    for k in range(levels):
+        chains = next_level(momentum, jacobian, chains, direction, values[k], values[k + 1], spacing, measure_floor)
+        if not chains:
+            return None
+        upper = np.concatenate(chains)
+        radius = min(rate_margin * rate_max * dt[k], link_radius)
+        links.append(_links(nodes[-1], upper, radius))
+        nodes.append(upper)
+        weights.append(measures(jacobian, upper))
+
+    # first sweep: the widest bottleneck reaching each sample
+    widest = [bottleneck]
+    for k, (i, j, _) in enumerate(links):
+        reached = np.full(len(nodes[k + 1]), -np.inf)
+        np.maximum.at(reached, j, np.minimum(widest[k][i], weights[k + 1][j]))
+        widest.append(reached)
+    best = float(widest[-1].max())
+    if not best >= measure_floor:
         return None
-    return PlannedPath(times, angles, float(measures.min()), float(peak))
+
+    # second sweep: least travel through samples with m >= the threshold
+    threshold = min(best, m_target) * (1 - 1e-12)
+    cost = [np.where(bottleneck >= threshold, travel, np.inf)]
+    previous = []
+    for k, (i, j, w) in enumerate(links):
+        candidate = cost[k][i] + w
+        usable = np.isfinite(candidate) & (weights[k + 1][j] >= threshold)
+        ci, cj, cv = i[usable], j[usable], candidate[usable]
+        order = np.lexsort((cv, cj))
+        first = order[np.concatenate([[True], cj[order][1:] != cj[order][:-1]])] if len(order) else order
+        reached, came_from = np.full(len(nodes[k + 1]), np.inf), np.full(len(nodes[k + 1]), -1)
+        reached[cj[first]], came_from[cj[first]] = cv[first], ci[first]
+        cost.append(reached)
+        previous.append(came_from)
+    if not np.isfinite(cost[-1]).any():
+        return None
+    chosen = [int(np.argmin(cost[-1]))]
+    for came_from in reversed(previous):
+        chosen.append(int(came_from[chosen[-1]]))
+    chosen.reverse()
+
+    # the arc at rest from the start to the path's first sample, then the path, unwrapped
+    j0 = chosen[0]
+    way = list(range(at_start, j0 + 1)) if j0 >= at_start else list(range(at_start, j0 - 1, -1))
+    rest = start + np.concatenate([[np.zeros(4)], np.cumsum(difference(arc[way[1:]], arc[way[:-1]]), axis=0)])
+    path = [rest[-1]]
+    for k in range(1, levels + 1):
+        path.append(path[-1] + difference(nodes[k][chosen[k]], nodes[k - 1][chosen[k - 1]]))
+    path = np.array(path)
+
+    # time it: the path at s(t), Newton back onto the level
+    position = np.clip(levels_of_time / (values[1] - values[0]) if s_max > 0 else 0 * times, 0, levels)
+    low = np.minimum(np.floor(position).astype(int), levels - 1)
+    angles = path[low] + (position - low)[:, None] * (path[low + 1] - path[low])
+    moved, landed = onto_level(momentum, jacobian, angles, levels_of_time[:, None] * direction)
+    angles = np.where(landed[:, None], angles + difference(moved, angles), angles)
+    peak = float((np.abs(np.diff(angles, axis=0)).max(axis=-1) / np.diff(times)).max())
+    lowest = float(min(measures(jacobian, angles).min(), arc_measure[way].min()))
+    if lowest < measure_floor or peak > rate_max or not landed.all():
+        return None
+    return PlannedPath(times, angles, rest, lowest, peak, best)

@@ -3,12 +3,13 @@ tracked with exact torque (docs/theory/steering.md "Planned paths").
 
 At construction it reads the `slew` law's program (its design data `slew_program`; rest to rest,
 from a cluster holding no momentum, so the cluster must hold H_w(t) = -I omega*(t) in body axes,
-I the locked inertia), plans the path (planned_path.plan_gimbal_path on the cluster's unit J) and
-refuses the run (exit 2, before the first step) when the plan is refused or its reconfiguration
-before the slew does not fit in start_s at the rate limit. In flight it runs the `pga` law with the
-preferred angles moved along the plan: from the start to the plan's first angles over [0, start_s]
-(the reconfiguration, linear), then the plan's angles one control period ahead, with the null gain
-1 / Tc; the torque is the pseudo-inverse's, exact on the demand.
+I the locked inertia: for the eigen-axis slew a line, H_w = s(t) d), plans the path
+(planned_path.plan_gimbal_path on the cluster's unit H and J, its reconfiguration at rest within
+start_s at the rate limit) and refuses the run (exit 2, before the first step) when the program
+is not along one line or the plan is refused. In flight it runs the `pga` law with the preferred
+angles moved along the plan: along the reconfiguration over [0, start_s], then the plan's angles
+one control period ahead, with the null gain 1 / Tc; the torque is the pseudo-inverse's, exact on
+the demand.
 """
 
 from __future__ import annotations
@@ -29,8 +30,9 @@ TYPE = "pipeline.allocator.type"
 
 @dataclass(kw_only=True)
 class PlannedParams(SteeringParams):
-    plan_step_s: float = param(0.5, gt=0, doc="step of the planned path")
-    plan_evaluations: int = param(150, ge=1, le=10000, doc="most cost evaluations of the optimiser")
+    plan_step_s: float = param(0.1, gt=0, doc="time step of the planned path")
+    plan_levels: int = param(60, ge=4, le=1000, doc="momentum levels of the planning graph")
+    plan_spacing_deg: float = param(3.0, gt=0, le=30, doc="spacing of the samples along each fibre")
 
 
 @stage("allocator", "planned", PlannedParams)
@@ -52,16 +54,21 @@ class PlannedAllocator(SteeringAllocator):
             raise InputError(TYPE, "planned steering needs a start holding no momentum (a zero-momentum set)")
         trajectory = build_program(program, ctx.initial.quat)
         inertia, h = np.asarray(ctx.inertia, float), self.geometry.h
-        plan = plan_gimbal_path(self.geometry.unit_jacobian, self.start,
-                                lambda t: -(inertia @ trajectory.acceleration(t)) / h, program.duration_s,
-                                self.rate_max, plan_dt=params.plan_step_s, max_evaluations=params.plan_evaluations)
+        times = np.linspace(0.0, program.duration_s, max(2, int(np.ceil(program.duration_s / params.plan_step_s)) + 1))
+        wanted = -np.array([inertia @ trajectory.rate(t) for t in times]) / h
+        peak = wanted[np.argmax(np.linalg.norm(wanted, axis=-1))]
+        direction = peak / max(np.linalg.norm(peak), 1e-300)
+        levels = wanted @ direction
+        off_line = max(np.abs(wanted - levels[:, None] * direction).max(), -levels.min())  # round-off for a line
+        if off_line > 1e-9 * max(levels.max(), 1e-300):
+            raise InputError(TYPE, "planned steering plans momentum programs along one line (eigen-axis slews)")
+        plan = plan_gimbal_path(lambda beta: self.geometry.momentum(beta) / h, self.geometry.unit_jacobian, self.start,
+                                direction, times, np.maximum(levels, 0.0), self.rate_max,
+                                reconfiguration_travel=self.rate_max * program.start_s, levels=params.plan_levels,
+                                spacing=np.radians(params.plan_spacing_deg))
         if plan is None:
             raise InputError(TYPE, "no planned gimbal path flies this slew within the rate limit and "
                              "sqrt(det(J J^T)) >= 0.05; slow the slew down or shorten it")
-        travel = float(np.abs(plan.angles[0] - self.start).max())
-        if travel > 0 and travel > self.rate_max * program.start_s:
-            raise InputError(TYPE, f"the planned start is {np.degrees(travel):.3g} deg away; start_s = "
-                             f"{program.start_s:g} s is too short to reach it at the rate limit")
         self.plan, self.slew_start = plan, program.start_s
         self.options["null_gain_per_s"] = 1.0 / self.period
 
@@ -70,8 +77,8 @@ class PlannedAllocator(SteeringAllocator):
         plan = getattr(self, "plan", None)
         if plan is not None:
             ahead = t + self.period
-            if ahead < self.slew_start:  # the reconfiguration before the slew
-                inputs["preferred_gimbal_angles"] = self.start + (plan.angles[0] - self.start) * ahead / self.slew_start
+            if ahead < self.slew_start:  # the reconfiguration at rest before the slew
+                inputs["preferred_gimbal_angles"] = plan.reconfigured_at(ahead / self.slew_start)
             else:
                 inputs["preferred_gimbal_angles"] = plan.at(ahead - self.slew_start)
         return inputs

@@ -15,6 +15,7 @@ from testbed.systems.free_bus import FreeBus
 from testbed.math.quaternion import quat_conj, quat_rotate
 from testbed.plant import Plant
 from testbed.recording.scene import moving_parts
+from testbed.steering.singularity_type import DEGENERATE, ELLIPTIC, HYPERBOLIC, KIND_NAMES
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTORS, ClusterGeometry
 from testbed.systems.cmg_rhombus.faults import FAULT_CODES, FaultInjector
 from testbed.systems.cmg_rhombus.gimbal_servo import FeedForwardServo, IntVelocityServo
@@ -25,6 +26,8 @@ from testbed.systems.cmg_rhombus.servo_tracking import ServoMiss, servo_miss
 from testbed.systems.cmg_rhombus.momentum_envelope import (remaining_cluster_surfaces, singular_surface_points,
                                                            surface_color, surface_name)
 
+# the momentum view's marks of the singular states the path met: hyperbolic cyan, elliptic magenta, degenerate white
+SINGULAR_KIND_COLORS = {HYPERBOLIC: [40, 200, 235], ELLIPTIC: [225, 40, 210], DEGENERATE: [245, 245, 245]}
 ENVELOPE_DIRECTIONS = 1500  # directions per surface in the trace's momentum view (testbed envelope: 4000)
 
 
@@ -338,4 +341,8 @@ class CmgPlant(Plant):
                 "title": "cluster momentum H [N m s]: envelope, singular surfaces, H(t)",
                 "surfaces": drawn,
                 "path": "truth/cmg_momentum", "measure": "truth/singularity_measure",
-                "measure_range": [0.0, (N_CMG / 3.0) ** 1.5]}}
+                "measure_range": [0.0, (N_CMG / 3.0) ** 1.5],
+                # where the path met each kind of singular state (the steering stage's Bedrossian test)
+                "marks": {"signal": "allocator/singularity_type", "entity": "singular",
+                          "kinds": {code: {"name": KIND_NAMES[code], "color": color}
+                                    for code, color in SINGULAR_KIND_COLORS.items()}}}}
