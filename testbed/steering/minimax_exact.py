@@ -78,7 +78,8 @@ def priced_line_parameter(x, n, price: float) -> float:
     null motion's size |beta' - beta'_min-norm| (docs/theory/steering.md, "A price on null motion").
 
     The function is convex and piecewise linear in t, so its minimum lies at a kink: a root
-    -x_i / n_i, a crossing of two lines +-(x_i + t n_i), or t0; all 17 are compared. The exact
+    -x_i / n_i, a crossing of two lines +-(x_i + t n_i), or t0; those between the min-max t and
+    t0 (the two terms' minimisers) are compared. The exact
     min-max t is kept wherever the envelope rises faster than price |n| on both of its sides.
     """
     norm2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]

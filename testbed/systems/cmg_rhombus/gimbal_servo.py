@@ -30,7 +30,8 @@ feedforward  the same PD loop, softer (w_n of a few rad/s), plus one motor per g
     command): the gyroscopic torque h_i w . J_i changes with the angles as the bus turns under the
     cluster and J_i turns with its gimbal (D = `angle_sensitivity`), so when the rates jump its
     slope jumps with them, which a linear extrapolation alone misses by a few % of the jump on
-    the next tick. What is left is the curvature of the rest (second order in Tc). Before t = 0 the servo held the gimbal at
+    the next tick. What is left is the curvature of the rest (second order in Tc).
+    Before t = 0 the servo held the gimbal at
     rest: delta^ starts at the torque MuJoCo computes on the gimbal at the initial state
     (-qfrc_bias). J is the gimbal's effective inertia 1 / (M^-1)_gg (the bus and the other
     gimbals recoil a little), read from MuJoCo's mass matrix at t = 0. With a torque limit
@@ -229,7 +230,7 @@ class FeedForwardServo(IntVelocityServo):
         # the gimbals' angles and rates at the last tick and their weighted mean angles over
         # the last two ticks (at rest before t = 0)
         self._last_angle, self._last_rate = self._angle.copy(), self._rate.copy()
-        self._mean_last = self._mean_before = self._angle.copy()
+        self._mean_before = self._angle.copy()
 
     def angle_sensitivity(self) -> np.ndarray:
         """D = d(delta')/d(beta') [N m s / rad], (4, 4), at the present state: the disturbance on
