@@ -61,6 +61,10 @@ class PlanarPlant(Plant):
         return max(abs(self.J * self.rate()), 1e-300)
 
     # --- stepping -----------------------------------------------------------------------
+    def external_wrench(self) -> bool:
+        """The disturbance motor's torque is the rig's surroundings acting on it (the accuracy guard reads it)."""
+        return super().external_wrench() or bool(self.params.disturbance_rad_s2 or self.params.disturbance_rate_rad_s3)
+
     def initialise(self, initial) -> None:
         if (initial.omega_deg_s is not None or initial.omega_rad_s is not None
                 or list(initial.quat) != [1.0, 0.0, 0.0, 0.0]):
