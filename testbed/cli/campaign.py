@@ -211,7 +211,7 @@ def open_table(out: Path, name: str, data: dict, cases, args):
     columns: dict = {}
     for case in cases:
         merge_kinds(columns, expected_row(case, case.prepared["applied"], case.prepared["metrics"],
-                                          [*GUARD_CHECKS, *case.prepared["checks"]]))  # a guard's cell: FAIL or empty
+                                          [*case.prepared["checks"], *GUARD_CHECKS]))  # a guard's cell: FAIL or empty
     identity = {"scenario": name, "set": list(args.set), "cases": len(cases), "fingerprint": fingerprint(data, cases)}
     table = CampaignTable(out, file_stem(name), columns, identity, {"status": STATUSES},
                           {case.index: identity_cells(case) for case in cases})
