@@ -98,16 +98,19 @@ def signals_as_exceptions():
 
 @contextlib.contextmanager
 def signals_held():
-    """Within the block (in the main thread; elsewhere it does nothing): SIGINT and SIGTERM are
-    noted, not handled; at its end the handlers are back and the first signal noted is raised
-    again, so it takes effect there (KeyboardInterrupt, `Terminated`). For code that must not
-    stop half-way, such as Dask starting or closing a cluster, for a bounded time."""
+    """Within the block (in the main thread; elsewhere it does nothing): SIGINT, SIGTERM and each
+    of OTHER_ENDING_SIGNALS that has a Python handler are noted, not handled; at its end the
+    handlers are back and the first signal noted is raised again, so it takes effect there
+    (KeyboardInterrupt, `Terminated`). For code that must not stop half-way for a bounded time:
+    Dask starting or closing a cluster, a temporary file made and its name kept (the name is
+    what the way out removes)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     noted: list[int] = []
     previous = {signum: signal.signal(signum, lambda signum, frame: noted.append(signum))
-                for signum in (signal.SIGINT, signal.SIGTERM) if signal.getsignal(signum) != signal.SIG_IGN}
+                for signum in (signal.SIGINT, signal.SIGTERM) + OTHER_ENDING_SIGNALS
+                if callable(signal.getsignal(signum))}  # SIG_IGN stays ignored, SIG_DFL ends at once
     try:
         yield
     finally:

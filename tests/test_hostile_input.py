@@ -1367,6 +1367,41 @@ def test_a_signal_ignored_at_start_stays_ignored():
         signal.signal(signal.SIGINT, previous)
 
 
+def _signalling_partial_beside(signum):
+    """partial_beside that makes its file, then takes `signum` before it returns: the moment a
+    loaded machine can deschedule a run (seen once: SIGQUIT left `.t.rrd.<random>.partial`)."""
+    from testbed.recording import atomic_file
+
+    def made_then_signalled(path):
+        made = atomic_file.tempfile.mkstemp(dir=Path(path).parent, prefix=f".{Path(path).name}.", suffix=".partial")
+        signal.raise_signal(signum)
+        return made
+    return made_then_signalled
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGQUIT])
+def test_a_signal_while_the_trace_file_is_made_leaves_nothing(tmp_path, monkeypatch, signum):
+    """The signal is held until the temporary name is kept, then raised: the way out removes it."""
+    from testbed.interrupts import Terminated, signals_as_exceptions
+    from testbed.recording import trace
+
+    monkeypatch.setattr(trace, "partial_beside", _signalling_partial_beside(signum))
+    with pytest.raises(Terminated), signals_as_exceptions():
+        with trace.recording_to(tmp_path / "t.rrd"):
+            pass
+    assert everything_in(tmp_path) == []
+
+
+def test_a_signal_while_an_atomic_file_is_made_leaves_nothing(tmp_path, monkeypatch):
+    from testbed.interrupts import Terminated, signals_as_exceptions
+    from testbed.recording import atomic_file
+
+    monkeypatch.setattr(atomic_file, "partial_beside", _signalling_partial_beside(signal.SIGTERM))
+    with pytest.raises(Terminated), signals_as_exceptions():
+        atomic_file.write_atomically(tmp_path / "table.csv", "a,b\n")
+    assert everything_in(tmp_path) == []
+
+
 # --- 14. two runs writing one --out at the same time ------------------------------------------
 
 @pytest.mark.slow

@@ -12,6 +12,7 @@ import tempfile
 from pathlib import Path
 
 from testbed.errors import write_failed
+from testbed.interrupts import signals_held
 
 
 # bytes of the final name kept in the temporary one: with the dots, mkstemp's 8 random
@@ -52,11 +53,17 @@ class atomic_file:
         self.path, self.binary, self.overwrite = Path(path), binary, overwrite
 
     def __enter__(self):
+        self.partial = None
         try:
-            fd, self.partial = partial_beside(self.path)
+            with signals_held():  # a signal before the name is kept would leave the file behind
+                fd, self.partial = partial_beside(self.path)
+                self.handle = os.fdopen(fd, "wb" if self.binary else "w", **({} if self.binary else {"newline": ""}))
         except OSError as exc:  # no room for even an empty file (no inodes left)
             raise write_failed(self.path, exc) from None
-        self.handle = os.fdopen(fd, "wb" if self.binary else "w", **({} if self.binary else {"newline": ""}))
+        except BaseException:  # the signal held above: __exit__ is not called when __enter__ raises
+            if self.partial is not None:
+                Path(self.partial).unlink(missing_ok=True)
+            raise
         return self.handle
 
     def __exit__(self, kind, value, traceback):

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from testbed.errors import InputError, quoted
+from testbed.interrupts import signals_held
 from testbed.recording.atomic_file import partial_beside
 
 NAME_MAX = 255  # bytes in one file or folder name (ext4 and most others)
@@ -70,6 +71,7 @@ def check_creatable(path: Path, field: str) -> None:
     if not existing.is_dir():
         raise InputError(field, f"{quoted(str(existing))} is a file, so {quoted(str(path))} cannot be created")
     # the one sure test: create (and remove) the kind of temporary file the trace is written to
-    handle, probe = partial_beside(existing / path.name)
-    os.close(handle)
-    os.unlink(probe)
+    with signals_held():  # a signal in between would leave the probe behind
+        handle, probe = partial_beside(existing / path.name)
+        os.close(handle)
+        os.unlink(probe)

@@ -21,6 +21,7 @@ import rerun as rr
 from testbed.recording.atomic_file import partial_beside
 from testbed.recording.rrd_frames import whole_frames_end
 from testbed.errors import WriteFailed
+from testbed.interrupts import signals_held
 
 FLUSH_STEP_S = 0.5
 FLUSH_TIMEOUT_S = 120.0  # a flush of one chunk takes milliseconds; this is a disk that stopped answering
@@ -32,17 +33,18 @@ PROBE_BYTES = 64 * 1024  # more than fits once a write failed: Rust's write_all 
 
 def write_refusal(folder: Path) -> str | None:
     """Why a write of PROBE_BYTES in `folder` fails now ("No space left on device"); None if it succeeds."""
-    try:
-        handle, probe = partial_beside(Path(folder) / "write-probe")
-    except OSError as exc:
-        return exc.strerror or str(exc)
-    try:
-        os.write(handle, bytes(PROBE_BYTES))
-    except OSError as exc:
-        return exc.strerror or str(exc)
-    finally:
-        os.close(handle)
-        os.unlink(probe)
+    with signals_held():  # a signal in between would leave the probe behind
+        try:
+            handle, probe = partial_beside(Path(folder) / "write-probe")
+        except OSError as exc:
+            return exc.strerror or str(exc)
+        try:
+            os.write(handle, bytes(PROBE_BYTES))
+        except OSError as exc:
+            return exc.strerror or str(exc)
+        finally:
+            os.close(handle)
+            os.unlink(probe)
     return None
 
 

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import rerun as rr
 
+from testbed.interrupts import signals_held
 from testbed.recording.atomic_file import partial_beside, publish
 from testbed.recording.blueprint import RESULT_ENTITY, UNITS, blueprint, series_names
 from testbed.recording.decimation import block_starts, minmax_decimate
@@ -172,7 +173,8 @@ def recording_to(path, application: str = APP_ID, live=None, footer: bool = True
             rec = rr.RecordingStream(application, recording_id=recording_id)
             path = Path(path)
             path.parent.mkdir(parents=True, exist_ok=True)
-            handle, partial = partial_beside(path)
+            with signals_held():  # a signal between making the file and keeping its name would leave it
+                handle, partial = partial_beside(path)
             os.close(handle)
             rec = FileStream.opened(rec, partial, path, footer)  # before logging: nothing buffered
         if live is not None:
