@@ -119,7 +119,9 @@ REFUSED_GIMBALS = "[-5.170237, 59.842285, -122.775898, 177.828170]"
 def test_the_refused_stored_momentum_run_anyway_misses_the_spin(monkeypatch, capsys):
     """What the refusal spares: REFUSED_GIMBALS is refused at load (1.08 times what the cluster
     holds), and flown with the check bypassed the spin ends more than 0.1 deg/s off, the steering
-    near the cluster's singular sets (least sqrt(det J J^T) below 1e-3)."""
+    near the cluster's singular sets: least sqrt(det J J^T) below 1e-2, fifty times below the
+    shipped angles' 0.48. How near is round-off's (a path that grazes the set: 1.4e-3 on an AMD
+    EPYC, below 1e-3 on an Intel Xeon); the spin's miss is not."""
     import testbed.lebedev.stage as lebedev_stage
     from testbed.runner import run_scenario
     from testbed.scenario.loading import load_scenario
@@ -129,5 +131,5 @@ def test_the_refused_stored_momentum_run_anyway_misses_the_spin(monkeypatch, cap
     monkeypatch.setattr(lebedev_stage, "check_end_momentum_held", lambda *args, **kwargs: None)
     run = run_scenario(load_scenario("lebedev_spinup_cmg_momentum", [f"model.gimbal_angles_deg={REFUSED_GIMBALS}"]),
                        None)
-    assert run.metrics["min_singularity_measure"] < 1e-3
+    assert run.metrics["min_singularity_measure"] < 1e-2
     assert run.metrics["spin_error_final_deg_s"] > 0.1
