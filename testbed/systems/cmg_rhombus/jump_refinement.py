@@ -20,10 +20,10 @@ REFINED = 4  # steps of dt / REFINED over a tick after a jump
 class JumpRefinement:
     """Tells, once a tick, whether the gimbal commands held in `commands` (a view of MuJoCo's
     ctrl) jumped since the last tick by more than `threshold` [rad/s], and steps that tick's
-    physics at timestep / REFINED (`stepper`)."""
+    physics at timestep / `factor` (`stepper`)."""
 
-    def __init__(self, model, commands, threshold: float):
-        self.model, self.commands, self.threshold = model, commands, threshold
+    def __init__(self, model, commands, threshold: float, factor: int = REFINED):
+        self.model, self.commands, self.threshold, self.factor = model, commands, threshold, factor
         self.last = commands.tolist()
         self.refined_ticks = 0
 
@@ -35,8 +35,8 @@ class JumpRefinement:
         return jump > self.threshold
 
     def stepper(self, coarse, fine):
-        """A tick's steps: `coarse()` as the model's timestep, or, after a jump, `fine()`
-        (REFINED times the steps) at timestep / REFINED."""
+        """A tick's steps: `coarse()` at the model's timestep, or, after a jump, `fine()`
+        (`factor` times the steps) at timestep / `factor`."""
         opt = self.model.opt
 
         def advance() -> None:
@@ -44,7 +44,7 @@ class JumpRefinement:
                 coarse()
                 return
             dt = opt.timestep
-            opt.timestep = dt / REFINED
+            opt.timestep = dt / self.factor
             try:
                 fine()
             finally:

@@ -19,7 +19,7 @@ from testbed.steering.singularity_type import DEGENERATE, ELLIPTIC, HYPERBOLIC, 
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTORS, ClusterGeometry
 from testbed.systems.cmg_rhombus.faults import FAULT_CODES, FaultInjector
 from testbed.systems.cmg_rhombus.gimbal_servo import FeedForwardServo, IntVelocityServo
-from testbed.systems.cmg_rhombus.jump_refinement import JUMP_FRACTION, JUMP_NO_LIMIT_RAD_S, REFINED, JumpRefinement
+from testbed.systems.cmg_rhombus.jump_refinement import JUMP_FRACTION, JUMP_NO_LIMIT_RAD_S, JumpRefinement
 from testbed.systems.cmg_rhombus.model import GIMBAL_MOTORS, GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS
 from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel
 from testbed.systems.cmg_rhombus.rotor_imbalance import RotorImbalance
@@ -202,7 +202,7 @@ class CmgPlant(Plant):
         imbalance, its wrench renewed before each (rotor_imbalance.py)."""
         if self.imbalance is None:
             return self.jumps.stepper(functools.partial(Plant.step, self, nstep),
-                                      functools.partial(Plant.step, self, nstep * REFINED))()
+                                      functools.partial(Plant.step, self, nstep * self.jumps.factor))()
         t0 = self.data.time
         # in orbit, the environment's held wrench is added to the imbalance's (both are xfrc_applied)
         self.imbalance.step(nstep, None if self.surroundings is None else self.surroundings.applied_world)
@@ -217,10 +217,10 @@ class CmgPlant(Plant):
         half steps (rotor_imbalance.py), so their ticks are not."""
         if self.imbalance is None:
             if self.surroundings is not None:
-                coarse, fine = super().stepper(nstep), super().stepper(nstep * REFINED)
+                coarse, fine = super().stepper(nstep), super().stepper(nstep * self.jumps.factor)
             else:
                 coarse = functools.partial(mujoco.mj_step, self.model, self.data, nstep)
-                fine = functools.partial(mujoco.mj_step, self.model, self.data, nstep * REFINED)
+                fine = functools.partial(mujoco.mj_step, self.model, self.data, nstep * self.jumps.factor)
             return self.jumps.stepper(coarse, fine)
         return functools.partial(self.step, nstep)
 
