@@ -170,7 +170,8 @@ class CmgPlant(Plant):
                                         params.rotor_dynamic_imbalance_kg_m2) if unbalanced else None
         self.control_period, self.rate_limit = control_period, rate_limit
         threshold = JUMP_NO_LIMIT_RAD_S if rate_limit is None else JUMP_FRACTION * float(np.min(rate_limit))
-        self.jumps = JumpRefinement(model, self.data.ctrl[evenly_spaced(self.bus.gimbal_actuator_ids)], threshold)
+        self.jumps = JumpRefinement(model, self.data, self.data.ctrl[evenly_spaced(self.bus.gimbal_actuator_ids)],
+                                    threshold, control_period)
 
     # --- what the accuracy guard reads (testbed/accuracy/) -------------------------------
     def external_wrench(self) -> bool:
