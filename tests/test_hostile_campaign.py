@@ -286,7 +286,7 @@ def test_the_default_case_timeout_follows_the_scenario():
     from testbed.api import load
     from testbed.campaign.case_timeout import case_timeout_s
 
-    assert case_timeout_s(load("reorient_campaign")) == pytest.approx(60 + 85 / 0.005 * 1e-3)
+    assert case_timeout_s(load("reorient_campaign")) == pytest.approx(60 + 85 / 0.01 * 1e-3)
 
 
 # --- workers that die -------------------------------------------------------------------------

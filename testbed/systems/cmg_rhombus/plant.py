@@ -19,6 +19,7 @@ from testbed.steering.singularity_type import DEGENERATE, ELLIPTIC, HYPERBOLIC, 
 from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTORS, ClusterGeometry
 from testbed.systems.cmg_rhombus.faults import FAULT_CODES, FaultInjector
 from testbed.systems.cmg_rhombus.gimbal_servo import FeedForwardServo, IntVelocityServo
+from testbed.systems.cmg_rhombus.jump_refinement import JUMP_FRACTION, JUMP_NO_LIMIT_RAD_S, JumpRefinement
 from testbed.systems.cmg_rhombus.model import GIMBAL_MOTORS, GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS
 from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel
 from testbed.systems.cmg_rhombus.rotor_imbalance import RotorImbalance
@@ -168,6 +169,9 @@ class CmgPlant(Plant):
         self.imbalance = RotorImbalance(self.bus, model, self.data, params.rotor_static_imbalance_kg_m,
                                         params.rotor_dynamic_imbalance_kg_m2) if unbalanced else None
         self.control_period, self.rate_limit = control_period, rate_limit
+        threshold = JUMP_NO_LIMIT_RAD_S if rate_limit is None else JUMP_FRACTION * float(np.min(rate_limit))
+        self.jumps = JumpRefinement(model, self.data, self.data.ctrl[evenly_spaced(self.bus.gimbal_actuator_ids)],
+                                    threshold, control_period)
 
     # --- what the accuracy guard reads (testbed/accuracy/) -------------------------------
     def external_wrench(self) -> bool:
@@ -195,9 +199,11 @@ class CmgPlant(Plant):
                 "the gimbal servo missed its held command, beyond the jumps it was handed, by")
 
     def step(self, nstep: int) -> None:
-        """`nstep` physics steps; with rotor imbalance, its wrench renewed before each (rotor_imbalance.py)."""
+        """`nstep` physics steps, finer after a gimbal-command jump (jump_refinement.py); with rotor
+        imbalance, its wrench renewed before each (rotor_imbalance.py)."""
         if self.imbalance is None:
-            return super().step(nstep)
+            return self.jumps.stepper(functools.partial(Plant.step, self, nstep),
+                                      functools.partial(Plant.step, self, nstep * self.jumps.factor))()
         t0 = self.data.time
         # in orbit, the environment's held wrench is added to the imbalance's (both are xfrc_applied)
         self.imbalance.step(nstep, None if self.surroundings is None else self.surroundings.applied_world)
@@ -207,11 +213,16 @@ class CmgPlant(Plant):
 
     def stepper(self, nstep: int):
         """Plant.stepper's fast path (mj_step, checked every few ticks; in orbit, the surroundings'
-        update after it) unless the rotors are unbalanced."""
+        update after it) unless the rotors are unbalanced; a tick after a gimbal-command jump is
+        stepped finer (jump_refinement.py). The unbalanced rotors' wrench is renewed at its own
+        half steps (rotor_imbalance.py), so their ticks are not."""
         if self.imbalance is None:
             if self.surroundings is not None:
-                return super().stepper(nstep)
-            return functools.partial(mujoco.mj_step, self.model, self.data, nstep)
+                coarse, fine = super().stepper(nstep), super().stepper(nstep * self.jumps.factor)
+            else:
+                coarse = functools.partial(mujoco.mj_step, self.model, self.data, nstep)
+                fine = functools.partial(mujoco.mj_step, self.model, self.data, nstep * self.jumps.factor)
+            return self.jumps.stepper(coarse, fine)
         return functools.partial(self.step, nstep)
 
     def initialise(self, initial) -> None:
