@@ -332,11 +332,22 @@ class LebedevObserver:
         w_hat continuously (the continuous loop)."""
         z = state[:3]
         if not self.measured_momentum or momentum is None:
-            return self.A @ z + self.l_closed * (y_dev - self.C @ z) + lebedev_nonlinearity(self.a, z) + u
+            return self._fixed_gain_derivative(z, y_dev, u)
         model = self.A @ z + lebedev_nonlinearity(self.a, z) + u
         if compensated is not None:
             model = model + (compensated - cross3(z + [0.0, 0.0, self.spin_rate], momentum)) / self.inertia
         return self._filtered(state, model, y_dev, momentum)
+
+    def _fixed_gain_derivative(self, z, y_dev, u) -> np.ndarray:
+        """A z + l_closed (y_dev - C z) + F(z) + u (`closed_derivative` with the fixed gain),
+        summed in that order. Plain floats but for A z (numpy's matmul, whose rounding it keeps;
+        C z is summed left to right, as numpy's dot of two 3-vectors does): RK4 evaluates it four
+        times a control period, and numpy's calls on 3-vectors cost more than their arithmetic."""
+        x, c, gain = z.tolist(), self.C.tolist(), self.l_closed.tolist()
+        error = y_dev - (c[0] * x[0] + c[1] * x[1] + c[2] * x[2])
+        terms = zip((self.A @ z).tolist(), gain, lebedev_nonlinearity(self.a.tolist(), x).tolist(),
+                    np.asarray(u, dtype=float).tolist())
+        return np.array([linear + g * error + quadratic + input_ for linear, g, quadratic, input_ in terms])
 
     def hold_total_momentum(self, modelled, measured) -> None:
         """Re-anchor the estimate on a measured internal momentum: keep the total momentum in
