@@ -10,6 +10,8 @@ control law (eq. 4.7) feeds the estimate back, M_i = I_i k_i z_i.
 Pure numpy: no MuJoCo here. Units SI, rates in rad/s.
 """
 
+import math
+
 import numpy as np
 
 from testbed.errors import InputError
@@ -384,7 +386,7 @@ class LebedevObserver:
 
     def substeps(self, dt: float) -> int:
         """How many equal RK4 substeps integrate an interval of dt [s]: the fewest no longer than max_substep."""
-        return max(1, int(np.ceil(dt / self.max_substep - 1e-9)))
+        return max(1, math.ceil(dt / self.max_substep - 1e-9))
 
     def _advance(self, rhs_of_y, state, y, dt, y_end=None):
         if not dt > 0:
