@@ -180,13 +180,22 @@ class ProgramTrajectory:
         return prods[0], prods[1:4].sum(axis=0), _SECOND_WEIGHTS @ prods[4:]
 
     def state(self, t):
-        """(Λ*(t), ω*(t), ω*'(t)) from one evaluation of eq. (5), (7), (8)."""
+        """(Λ*(t), ω*(t), ω*'(t)) from one evaluation of eq. (5), (7), (8). The arrays of the last
+        t asked for are kept (read-only): a slew law and its tracking law ask for the same t in
+        every control tick."""
+        kept = self.__dict__.get("_kept_state")
+        if kept is not None and kept[0] == t:
+            return kept[1]
         lam, dlam, ddlam = self._relative(t)
         # Rows: Λ~∘Λ' (7), Λ~'∘Λ' and Λ~∘Λ'' (8), Λ_T∘Λ (5): one broadcast product.
         left = np.stack([quat_conj(lam), quat_conj(dlam), quat_conj(lam), self.q_ref])
         right = np.stack([dlam, dlam, ddlam, lam])
         p = quat_mul(left, right)
-        return p[3], 2.0 * p[0, 1:], 2.0 * (p[1, 1:] + p[2, 1:])
+        state = (p[3], 2.0 * p[0, 1:], 2.0 * (p[1, 1:] + p[2, 1:]))
+        for values in state:
+            values.flags.writeable = False
+        object.__setattr__(self, "_kept_state", (t, state))  # frozen fields; this is no field
+        return state
 
     def attitude(self, t) -> np.ndarray:
         """Λ*(t), unit quaternion body to world (eq. 5 premultiplied by Λ_T)."""

@@ -22,6 +22,7 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.guidance.program_trajectory import ProgramTrajectory
+from testbed.math.cross import cross3
 from testbed.guidance.tracking_law import TrackingLaw
 from testbed.math.validation import check_unit_vector
 from testbed.pipeline import require_attitude_estimate, require_free_body, stage
@@ -119,5 +120,5 @@ class Slew:
         q_p, w_p, dw_p = self.program.state(tau)
         error = rotation_vector(dq)
         return {"torque": torque, "program_quat": q_p, "program_omega": w_p,
-                "program_torque": self.inertia @ dw_p + np.cross(w_p, self.inertia @ w_p),
+                "program_torque": self.inertia @ dw_p + cross3(w_p, self.inertia @ w_p),
                 "attitude_error": error, "error_angle": np.array([np.linalg.norm(error)])}

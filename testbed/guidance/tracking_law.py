@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from testbed.errors import InputError
+from testbed.math.cross import cross3
 from testbed.math.validation import finite_number, inertia_matrix, unit_quaternion, vector3
 from testbed.math.quaternion import quat_conj, quat_mul, quat_rotate
 
@@ -80,7 +81,7 @@ class TrackingLaw:
         """(M, δq, δω): the wanted torque and the errors it acts on, from one program evaluation."""
         dq, dw, w_d, acc_p = self._errors(t, q_est, w_est)
         w = dw + w_d
-        acc_d = acc_p - np.cross(dw, w_d)
-        return self.inertia @ acc_d + np.cross(w, self.inertia @ w) + self._pd(dq, dw), dq, dw
+        acc_d = acc_p - cross3(dw, w_d)
+        return self.inertia @ acc_d + cross3(w, self.inertia @ w) + self._pd(dq, dw), dq, dw
 
 

@@ -10,6 +10,8 @@ control law (eq. 4.7) feeds the estimate back, M_i = I_i k_i z_i.
 Pure numpy: no MuJoCo here. Units SI, rates in rad/s.
 """
 
+import math
+
 import numpy as np
 
 from testbed.errors import InputError
@@ -315,8 +317,10 @@ class LebedevObserver:
         linearisation at the estimate (docs/theory/lebedev.md "Non-zero total momentum"); the state is (z, Pi)."""
         z = state[:3]
         matrix, drift = self.startup_model(momentum)
-        if not self.measured_momentum or momentum is None:
-            return matrix @ z + drift + self.l * (y_dev - self.C @ z)
+        if not self.measured_momentum or momentum is None:  # (A z + d) + l e, in plain floats as below
+            error = self._output_error(z.tolist(), y_dev)
+            terms = zip((matrix @ z).tolist(), drift.tolist(), self.l.tolist())
+            return np.array([linear + d + g * error for linear, d, g in terms])
         return self._filtered(state, matrix @ z + drift + lebedev_nonlinearity(self.a, z), y_dev, momentum)
 
     def closed_derivative(self, state, y_dev, u, momentum=None, compensated=None):
@@ -332,11 +336,28 @@ class LebedevObserver:
         w_hat continuously (the continuous loop)."""
         z = state[:3]
         if not self.measured_momentum or momentum is None:
-            return self.A @ z + self.l_closed * (y_dev - self.C @ z) + lebedev_nonlinearity(self.a, z) + u
+            return self._fixed_gain_derivative(z, y_dev, u)
         model = self.A @ z + lebedev_nonlinearity(self.a, z) + u
         if compensated is not None:
             model = model + (compensated - cross3(z + [0.0, 0.0, self.spin_rate], momentum)) / self.inertia
         return self._filtered(state, model, y_dev, momentum)
+
+    def _output_error(self, x: list, y_dev: float) -> float:
+        """y_dev - C x for the state x as plain floats, C x summed left to right as numpy's dot
+        of two 3-vectors does."""
+        c = self.C.tolist()
+        return y_dev - (c[0] * x[0] + c[1] * x[1] + c[2] * x[2])
+
+    def _fixed_gain_derivative(self, z, y_dev, u) -> np.ndarray:
+        """A z + l_closed (y_dev - C z) + F(z) + u (`closed_derivative` with the fixed gain),
+        summed in that order. Plain floats but for A z (numpy's matmul, whose rounding it keeps):
+        RK4 evaluates it four times a control period, and numpy's calls on 3-vectors cost more
+        than their arithmetic."""
+        x = z.tolist()
+        error = self._output_error(x, y_dev)
+        terms = zip((self.A @ z).tolist(), self.l_closed.tolist(), lebedev_nonlinearity(self.a.tolist(), x).tolist(),
+                    np.asarray(u, dtype=float).tolist())
+        return np.array([linear + g * error + quadratic + input_ for linear, g, quadratic, input_ in terms])
 
     def hold_total_momentum(self, modelled, measured) -> None:
         """Re-anchor the estimate on a measured internal momentum: keep the total momentum in
@@ -373,7 +394,7 @@ class LebedevObserver:
 
     def substeps(self, dt: float) -> int:
         """How many equal RK4 substeps integrate an interval of dt [s]: the fewest no longer than max_substep."""
-        return max(1, int(np.ceil(dt / self.max_substep - 1e-9)))
+        return max(1, math.ceil(dt / self.max_substep - 1e-9))
 
     def _advance(self, rhs_of_y, state, y, dt, y_end=None):
         if not dt > 0:

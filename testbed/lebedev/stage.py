@@ -281,9 +281,10 @@ class LebedevEstimator:
         obs = self.observer
         innovation = y - obs.C[2] * obs.spin_rate - obs.C @ obs.z
         closed = t >= self.startup
-        out = {"z": obs.z.copy(), "omega_estimate": obs.omega_estimate(),
+        omega = obs.omega_estimate()
+        out = {"z": obs.z.copy(), "omega_estimate": omega,
                "closed_loop": np.array([1.0 if closed else 0.0]), "innovation": np.array([innovation])}
         if closed:  # the start-up estimate may be far off: nobody downstream acts on it
-            out["omega"] = obs.omega_estimate()
+            out["omega"] = omega.copy()
         return out
 

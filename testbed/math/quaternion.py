@@ -6,6 +6,8 @@
 import mujoco
 import numpy as np
 
+from testbed.math.cross import cross3
+
 
 def quat_mul(p, q):
     """Hamilton product p ∘ q (works on (4,) or broadcast (..., 4) arrays)."""
@@ -14,7 +16,7 @@ def quat_mul(p, q):
     pw, pv = p[..., :1], p[..., 1:]
     qw, qv = q[..., :1], q[..., 1:]
     w = pw * qw - np.sum(pv * qv, axis=-1, keepdims=True)
-    v = pw * qv + qw * pv + np.cross(pv, qv)
+    v = pw * qv + qw * pv + cross3(pv, qv)
     return np.concatenate([w, v], axis=-1)
 
 
@@ -35,8 +37,8 @@ def quat_rotate(q, v):
     q = np.asarray(q, dtype=float)
     v = np.asarray(v, dtype=float)
     w, u = q[..., :1], q[..., 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
+    t = 2.0 * cross3(u, v)
+    return v + w * t + cross3(u, t)
 
 
 def quat_angle(q):

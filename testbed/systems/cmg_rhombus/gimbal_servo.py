@@ -195,7 +195,7 @@ class FeedForwardServo(IntVelocityServo):
         self._dofs = np.asarray(bus.gimbal_qvel_adr)
         self._kv = -model.actuator_biasprm[bus.gimbal_actuator_ids, 2]
         self.p, self.q, self.gamma = rate_deadbeat_gains(natural_frequency, damping_ratio, control_period)
-        self.m1, self.m2 = kernel_moments(natural_frequency, damping_ratio, control_period)
+        self.m1, self.m2 = (float(m) for m in kernel_moments(natural_frequency, damping_ratio, control_period))
         self.period = control_period
         self.torque_limit = torque_limit
         self.model = model
@@ -229,34 +229,40 @@ class FeedForwardServo(IntVelocityServo):
         self._bus_response = np.linalg.inv(full[np.ix_(self._bus_dofs, self._bus_dofs)])[3:, 3:]
         # the gimbals' angles and rates at the last tick and their weighted mean angles over
         # the last two ticks (at rest before t = 0)
-        self._last_angle, self._last_rate = self._angle.copy(), self._rate.copy()
-        self._mean_before = self._angle.copy()
+        self._last_angle, self._last_rate = self._angle.tolist(), self._rate.tolist()
+        self._mean_before = self._angle.tolist()
 
     def angle_sensitivity(self) -> np.ndarray:
         """D = d(delta')/d(beta') [N m s / rad], (4, 4), at the present state: the disturbance on
         gimbal i is h_i w . J_i (the rotor's gyroscopic torque, J_i the unit torque axis), and it
         changes as the bus turns under the cluster's torque, w' = -R sum_j h_j J_j b'_j (R the bus's
         rotational response), and as J_i turns with the gimbal, dJ_i/db_i = -s_i:
-        D_ij = -h_i h_j J_i^T R J_j - [i = j] h_i w . s_i (docs/theory/gimbal-servo.md)."""
+        D_ij = -h_i h_j J_i^T R J_j - [i = j] h_i w . s_i (docs/theory/gimbal-servo.md).
+        The products over the axes in numpy, the 4 x 4 scaling in plain floats (cheaper for
+        16 numbers, and the same ones)."""
         beta = self._angle
-        h = self.geometry.spin_inertia * self._rotor_rate
+        h = (self.geometry.spin_inertia * self._rotor_rate).tolist()
         jacobian = self.geometry.unit_jacobian(beta)  # (3, 4)
         spin = self.geometry.spin_axes(beta)  # (4, 3)
-        coupling = jacobian.T @ self._bus_response @ jacobian
-        return -(h[:, None] * coupling * h[None, :]) - np.diag(h * (spin @ self._bus_rate))
+        coupling = (jacobian.T @ self._bus_response @ jacobian).tolist()
+        turning = (spin @ self._bus_rate).tolist()  # w . s_i
+        sensitivity = [[-(h_i * c * h_j) for c, h_j in zip(row, h)] for h_i, row in zip(h, coupling)]
+        for i, (h_i, w_s) in enumerate(zip(h, turning)):
+            sensitivity[i][i] -= h_i * w_s
+        return np.array(sensitivity)
 
-    def _angle_correction(self, command) -> list:
+    def _angle_correction(self, command: list, angle: list, rate: list) -> list:
         """D times the second difference of the PD-weighted mean gimbal angle over the last two
         ticks and the coming one (predicted with the rate ramping from the measured one to the
         command): the part of the disturbance's change that a linear extrapolation misses when
-        the rates change (module docstring)."""
-        angle, rate, tc = self._angle.copy(), self._rate.copy(), self.period
-        ramp = self.m2 / (2.0 * tc)
-        mean_last = self._last_angle + self._last_rate * self.m1 + (rate - self._last_rate) * ramp
-        mean_next = angle + rate * self.m1 + (np.asarray(command) - rate) * ramp
-        second = mean_next - 2.0 * mean_last + self._mean_before
+        the rates change (module docstring). `angle`, `rate`: the gimbals' now, plain floats."""
+        m1, ramp = self.m1, self.m2 / (2.0 * self.period)
+        mean_last = [a + r * m1 + (r_now - r) * ramp
+                     for a, r, r_now in zip(self._last_angle, self._last_rate, rate)]
+        mean_next = [a + r * m1 + (c - r) * ramp for a, r, c in zip(angle, rate, command)]
+        second = [n - 2.0 * last + before for n, last, before in zip(mean_next, mean_last, self._mean_before)]
         self._mean_before, self._last_angle, self._last_rate = mean_last, angle, rate
-        return (self.angle_sensitivity() @ second).tolist()
+        return (self.angle_sensitivity() @ np.array(second)).tolist()
 
     def apply(self, data, rates) -> None:
         """This tick's command: the observer's update from the last tick, then the held
@@ -269,7 +275,7 @@ class FeedForwardServo(IntVelocityServo):
             command, followed = self._clipped(self._current), self._clipped(self._previous)
         rate, angle, setpoint = self._rate.tolist(), self._angle.tolist(), self._setpoint.tolist()
         delta, coming, torque = self._delta, self._predicted, self._torque  # last tick's, overwritten here
-        correction = self._angle_correction(command)
+        correction = self._angle_correction(command, angle, rate)
         for i, gain, kv_q, jp, jq in self._gains:  # in place: cheaper than zips, comprehensions or new lists
             rate_i = rate[i]
             delta_i = coming[i] + gain * (rate_i - followed[i])  # the disturbance the last tick met

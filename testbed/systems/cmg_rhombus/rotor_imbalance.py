@@ -20,6 +20,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from testbed.math.cross import cross3
 from testbed.systems.cmg_rhombus.cluster import ROTORS
 
 
@@ -49,7 +50,7 @@ class RotorImbalance:
             v = np.cos(lead) * frame[:, 1] - np.sin(lead) * frame[:, 0]
             f = self.static[i] * speed**2 * u
             force += f
-            torque += np.cross(data.xpos[self.rotor_bodies[i]] - data.xipos[self.bus_body], f)
+            torque += cross3(data.xpos[self.rotor_bodies[i]] - data.xipos[self.bus_body], f)
             torque += self.dynamic[i] * speed**2 * v
         return np.concatenate([force, torque])
 

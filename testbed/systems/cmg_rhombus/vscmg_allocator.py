@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from testbed.errors import InputError
+from testbed.math.cross import cross3
 from testbed.pipeline import stage
 from testbed.scenario.schema import join, param
 from testbed.steering.result import SteeringResult, status_string, status_code
@@ -81,7 +82,7 @@ class VscmgAllocator(SteeringAllocator):
         omega = np.asarray(estimate.get("omega", np.zeros(3)), float)
         g = self.geometry
         momentum = g.momentum(beta, rotor)
-        gyroscopic = np.cross(omega, momentum)
+        gyroscopic = cross3(omega, momentum)
         hdot = -(torque + gyroscopic)
         unit = g.unit_jacobian(beta)
         gimbal_columns = unit * (g.spin_inertia * rotor)
