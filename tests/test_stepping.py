@@ -189,6 +189,21 @@ def test_an_object_that_cannot_take_the_slot_is_refused_before_the_run(stages, m
     assert str(refused.value).startswith(message), str(refused.value)
 
 
+def test_a_given_estimate_without_a_key_the_law_reads_is_named_as_the_reason():
+    """An estimator output given without `quat`: the law that reads it fails its step, as any
+    stage whose input lacks a key, and the one-line reason names the given output (before:
+    KeyError: 'quat', blamed on the law alone)."""
+    import numpy as np
+
+    sim = testbed.Simulation("slew_quaternion_feedback_mekf", ["sim.duration_s=2"])
+    sim.step()
+    sim.step({"estimator": {"omega": np.zeros(3)}})
+    assert sim.status == "error" and sim.ticks == 1
+    assert sim.error.startswith("stage law 'quaternion_feedback' failed at t = 0.1 s")
+    assert "'quat', which the estimator output given to Simulation.step lacks" in sim.error
+    sim.close()
+
+
 def test_a_given_output_without_the_keys_its_slot_gives_is_refused_before_the_step():
     """Third hostile round: a law's output without `torque` was run (the run went on, status ok);
     and a keep_trace that is not a bool was taken as true."""

@@ -24,6 +24,21 @@ class FunctionStage:
         setattr(self, SLOT_METHODS[slot], function)
 
 
+class GivenMapping(dict):
+    """A given output that names itself when the stage after it reads a key it lacks: the
+    failure is that stage's (its run ends like any stage's), the reason the caller's."""
+
+    def __init__(self, slot: str, output: dict):
+        super().__init__(output)
+        self.slot = slot
+
+    def __missing__(self, key):
+        raise KeyError(f"{key!r}, which the {self.slot} output given to Simulation.step lacks")
+
+    def __or__(self, other):  # the law's input with the internal momentum added stays one
+        return GivenMapping(self.slot, {**self, **other})
+
+
 class GivenOutput:
     """A stage that returns one fixed output: a command given for one step
     (`testbed.stepping.Simulation.step`)."""
@@ -32,7 +47,8 @@ class GivenOutput:
 
     def __init__(self, slot: str, output: dict, command_key: str | None = None):
         self.output = command_key
-        setattr(self, SLOT_METHODS[slot], lambda *args: output)
+        given = GivenMapping(slot, output)
+        setattr(self, SLOT_METHODS[slot], lambda *args: given)
 
 
 def given_stage(slot: str, stage_object, actuators: dict, configured_output: str | None = None,
