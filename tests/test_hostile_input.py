@@ -1402,6 +1402,20 @@ def test_a_signal_while_an_atomic_file_is_made_leaves_nothing(tmp_path, monkeypa
     assert everything_in(tmp_path) == []
 
 
+def test_an_atomic_file_that_cannot_be_opened_leaves_nothing(tmp_path, monkeypatch):
+    """The temporary file made, its opening refused (OSError): WriteFailed naming the path, and
+    the temporary file removed (before: left beside the path)."""
+    from testbed.errors import WriteFailed
+    from testbed.recording import atomic_file
+
+    def refused(*args, **kwargs):
+        raise OSError(24, "Too many open files")
+    monkeypatch.setattr(atomic_file.os, "fdopen", refused)
+    with pytest.raises(WriteFailed):
+        atomic_file.write_atomically(tmp_path / "table.csv", "a,b\n")
+    assert everything_in(tmp_path) == []
+
+
 # --- 14. two runs writing one --out at the same time ------------------------------------------
 
 @pytest.mark.slow

@@ -58,12 +58,12 @@ class atomic_file:
             with signals_held():  # a signal before the name is kept would leave the file behind
                 fd, self.partial = partial_beside(self.path)
                 self.handle = os.fdopen(fd, "wb" if self.binary else "w", **({} if self.binary else {"newline": ""}))
-        except OSError as exc:  # no room for even an empty file (no inodes left)
-            raise write_failed(self.path, exc) from None
-        except BaseException:  # the signal held above: __exit__ is not called when __enter__ raises
+        except BaseException as exc:  # __exit__ is not called when __enter__ raises: remove what was made
             if self.partial is not None:
                 Path(self.partial).unlink(missing_ok=True)
-            raise
+            if isinstance(exc, OSError):  # no room for even an empty file (no inodes left)
+                raise write_failed(self.path, exc) from None
+            raise  # the signal held above
         return self.handle
 
     def __exit__(self, kind, value, traceback):
