@@ -11,6 +11,7 @@ faster than the control steps a tick in several calls: the window is the whole t
 
 from __future__ import annotations
 
+import functools
 import math
 
 JUMP_FRACTION = 0.1  # of the gimbal-rate limit: a jump smaller than this is stepped as it is
@@ -40,20 +41,21 @@ class JumpRefinement:
         self.last = now
         return self.data.time < self.until - 1e-9 * self.window  # a tick's end is the next one's start
 
-    def stepper(self, coarse, fine):
-        """Steps: `coarse()` at the model's timestep, or, in the window after a jump, `fine()`
-        (`factor` times the steps) at timestep / `factor`."""
+    def advance(self, coarse, fine) -> None:
+        """`coarse()` at the model's timestep, or, in the window after a jump, `fine()` (`factor`
+        times the steps) at timestep / `factor`."""
+        if not self.refine_now():
+            coarse()
+            return
         opt = self.model.opt
+        dt = opt.timestep
+        opt.timestep = dt / self.factor
+        try:
+            fine()
+        finally:
+            opt.timestep = dt
+        self.refined_calls += 1
 
-        def advance() -> None:
-            if not self.refine_now():
-                coarse()
-                return
-            dt = opt.timestep
-            opt.timestep = dt / self.factor
-            try:
-                fine()
-            finally:
-                opt.timestep = dt
-            self.refined_calls += 1
-        return advance
+    def stepper(self, coarse, fine):
+        """`advance` with these steps, as one call."""
+        return functools.partial(self.advance, coarse, fine)

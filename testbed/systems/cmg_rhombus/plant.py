@@ -202,8 +202,8 @@ class CmgPlant(Plant):
         """`nstep` physics steps, finer after a gimbal-command jump (jump_refinement.py); with rotor
         imbalance, its wrench renewed before each (rotor_imbalance.py)."""
         if self.imbalance is None:
-            return self.jumps.stepper(functools.partial(Plant.step, self, nstep),
-                                      functools.partial(Plant.step, self, nstep * self.jumps.factor))()
+            return self.jumps.advance(functools.partial(Plant.step, self, nstep),
+                                      functools.partial(Plant.step, self, nstep * self.jumps.factor))
         t0 = self.data.time
         # in orbit, the environment's held wrench is added to the imbalance's (both are xfrc_applied)
         self.imbalance.step(nstep, None if self.surroundings is None else self.surroundings.applied_world)
