@@ -136,13 +136,35 @@ def _nanmax(state, values):
 # when the chunk lacks the signals it reads); it is a frozen dataclass or a module-level
 # function, so that equal reductions stay equal.
 
+def _exact_partials(terms: list[float]) -> list[float]:
+    """Floats p_1, p_2, ... whose exact sum is the exact sum of `terms`, p_1 = math.fsum(terms)
+    (correctly rounded) and each next one fsum of what is left: |p_j+1| <= ulp(p_j) / 2. The
+    list ends at an exact remainder of 0 (or at a non-finite p_1: NaN, or inf, as np.sum gives)."""
+    partials = []
+    while True:
+        try:
+            total = math.fsum(itertools.chain(terms, (-p for p in partials)))
+        except ValueError:  # inf - inf
+            return [math.nan]
+        except OverflowError:  # an intermediate sum beyond the float range: inf, as np.sum gives
+            with np.errstate(over="ignore"):
+                return [float(np.sum(terms))]
+        if not math.isfinite(total):
+            return [total]
+        if total == 0.0:
+            return partials or [0.0]
+        partials.append(total)
+
+
 def _exact_sums(sums, values: np.ndarray):
-    """Column sums of `values` (n, k) added to `sums`, each rounded once (math.fsum): the mean of
-    a whole run then differs from np.mean's by np.mean's own rounding only (~1e-16 relative)."""
+    """Column sums of `values` (n, k) added to `sums`, held exactly (`_exact_partials`): the
+    result does not depend on how the run was cut into chunks (those follow wall time), and the
+    mean of a whole run is its correctly rounded sum over n, within np.mean's own rounding
+    (~1e-16 relative)."""
     columns = values.reshape(len(values), -1).T
     if sums is None:
-        sums = [0.0] * len(columns)
-    return [math.fsum(itertools.chain((total,), column.tolist())) for total, column in zip(sums, columns)]
+        sums = [[] for _ in columns]
+    return [_exact_partials([*partials, *column.tolist()]) for partials, column in zip(sums, columns)]
 
 
 def _summed(state, values: np.ndarray):
@@ -152,9 +174,10 @@ def _summed(state, values: np.ndarray):
 
 
 def _mean_of(state) -> np.ndarray:
-    """The column means a `_summed` state holds; NaN without rows."""
+    """The column means a `_summed` state holds (each column's correctly rounded sum over the
+    count); NaN without rows."""
     sums, count = state or (None, 0)
-    return np.array(sums) / count if count else np.array([np.nan])
+    return np.array([partials[0] for partials in sums]) / count if count else np.array([np.nan])
 
 
 @dataclass(frozen=True)
