@@ -114,7 +114,7 @@ def test_feedforward_follows_command_jumps_within_the_tick(h, inertia, dt, tc):
     bus, like min-max commands at the rate limit: the rate ends every tick near the command it
     held, the ticks right after each jump too. Linear extrapolation of the observed disturbance
     alone missed by 8.5 % and 3.0 % of the amplitude (the gyroscopic torque changes slope with the
-    rates); with the angle term (FeedForwardServo.angle_sensitivity) 0.66 % and 0.38 %. The band
+    rates); with the angle term (FeedForwardServo.angle_sensitivity_times) 0.66 % and 0.38 %. The band
     is physical (a servo good to 1.5 % of its rate limit), far from round-off."""
     rng = np.random.default_rng(11)
     amplitude = np.radians(10.0)
@@ -163,6 +163,39 @@ def test_the_ticks_after_command_jumps_are_stepped_finer_and_conserve_momentum()
     assert plant.jumps.refined_calls == jumps  # one call a tick here
     assert plant.model.opt.timestep == dt
     assert plant.data.time == pytest.approx(duration, rel=1e-12)  # well conditioned: a sum of 2000 steps
+
+
+def test_angle_sensitivity_times_is_the_assembled_matrix_times_the_vector():
+    """D x without D (the factored product) against D assembled from its definition,
+    D_ij = -h_i h_j J_i^T R J_j - [i = j] h_i w . s_i, with J and s from the cluster written out
+    independently (rhombus_reference.py) and R the inverse of the bus's mass block read here:
+    two orders of the same sums, so equal to round-off (1e-13 of |D| |x|), at random gimbal
+    angles, rotor speeds and bus rates on a bus that is not the shipped ones."""
+    import mujoco
+    from tests.rhombus_reference import rhombus_column_derivative, rhombus_jacobian
+    rng = np.random.default_rng(5)
+    params = CmgRhombusParams(inertia_kg_m2=[410.0, 530.0, 380.0], rotor_momentum_nms=40.0,
+                              alpha_deg=48.0, servo_model="feedforward", servo_natural_frequency_rad_s=5.0)
+    plant = CmgPlant(build(params, 0.01), params, 0.01)
+    for _ in range(3):
+        beta = rng.uniform(-np.pi, np.pi, 4)
+        plant.initialise(SimpleNamespace(omega=rng.normal(scale=0.05, size=3), quat=np.array([1.0, 0, 0, 0])))
+        plant.data.qpos[plant.bus.gimbal_qpos] = beta
+        plant.data.qvel[plant.bus.rotor_qvel] *= rng.uniform(0.5, 1.5, 4)
+        mujoco.mj_forward(plant.model, plant.data)
+        full = np.zeros((plant.model.nv, plant.model.nv))
+        mujoco.mj_fullM(plant.model, plant.data, full)
+        bus = np.arange(plant.bus.qvel_adr, plant.bus.qvel_adr + 6)
+        response = np.linalg.inv(full[np.ix_(bus, bus)])[3:, 3:]
+        plant.servo._bus_response = response.tolist()  # R at these angles, as start() reads it at t = 0
+        h = plant.bus.geometry.spin_inertia * plant.data.qvel[plant.bus.rotor_qvel]
+        omega = plant.data.qvel[plant.bus.qvel_adr + 3:plant.bus.qvel_adr + 6]
+        jacobian = rhombus_jacobian(beta, np.radians(48.0))
+        spin = -rhombus_column_derivative(beta, np.radians(48.0))
+        matrix = -np.outer(h, h) * (jacobian.T @ response @ jacobian) - np.diag(h * (omega @ spin))
+        x = rng.normal(scale=1e-3, size=4)
+        got = np.array(plant.servo.angle_sensitivity_times(x.tolist()))
+        np.testing.assert_allclose(got, matrix @ x, rtol=0, atol=1e-13 * np.abs(matrix).max() * np.abs(x).max())
 
 
 def test_observer_learns_a_torque_it_does_not_model():

@@ -55,7 +55,7 @@ class ClusterGeometry:
             raise ValueError(f"rotor momenta differ: {self.rotor_momentum}")
         self.h = float(self.rotor_momentum.mean())
         self.gimbal_axis_inertia = np.zeros(len(self.gimbal_axes))
-        self._turned_key, self._turned = None, None  # _turned_axes' last angles and axes
+        self._turned_key, self._turned = None, None  # turned_axes' last angles and axes
 
     def with_gimbal_inertia(self, cmg_inertia) -> "ClusterGeometry":
         """This geometry, told the inertia K_i of each gimbal frame with its rotor about their
@@ -96,11 +96,12 @@ class ClusterGeometry:
         """Rhombus angle a of SEEDS §004, from e_1 = (cos a, sin a, 0)."""
         return float(np.arctan2(self.spin_axes_zero[0, 1], self.spin_axes_zero[0, 0]))
 
-    def _turned_axes(self, beta):
+    def turned_axes(self, beta):
         """(cos b_i e_i + sin b_i s_i z, -sin b_i e_i + cos b_i s_i z), (..., 4, 3) each: the unit
-        spin axes and their derivatives along beta_i, from one evaluation of cos and sin. Those of
-        the last single set of angles are kept, read-only: the steering stage and the gimbal servo
-        ask for the same angles in every control tick."""
+        spin axes and their derivatives along beta_i (the unit Jacobian's columns, as rows), from
+        one evaluation of cos and sin. Those of the last single set of angles are kept and handed
+        out as they are, read-only: the steering stage and the gimbal servo ask for the same
+        angles in every control tick."""
         beta = np.asarray(beta, dtype=float)
         key = beta.tobytes() if beta.ndim == 1 else None
         if key is not None and key == self._turned_key:
@@ -116,7 +117,7 @@ class ClusterGeometry:
 
     def spin_axes(self, beta):
         """Unit spin axes at gimbal angles beta, (..., 4, 3): cos b_i e_i + sin b_i s_i z."""
-        return self._turned_axes(beta)[0].copy()
+        return self.turned_axes(beta)[0].copy()
 
     def momentum(self, beta, rotor_rates=None):
         """Total rotor spin momentum H(beta) = sum_i h_i (cos b_i e_i + sin b_i s_i z) in the
@@ -124,7 +125,7 @@ class ClusterGeometry:
         Leading dimensions of beta and rotor_rates (e.g. a recorded history) broadcast."""
         h = self.rotor_momentum if rotor_rates is None else (
             self.spin_inertia * np.asarray(rotor_rates, dtype=float))
-        return (h[..., None, :] @ self._turned_axes(beta)[0])[..., 0, :]
+        return (h[..., None, :] @ self.turned_axes(beta)[0])[..., 0, :]
 
     def held_momentum(self, beta, rotor_rates, gimbal_rates):
         """The momentum the cluster holds relative to the bus in full [N m s], bus frame: the
@@ -143,7 +144,7 @@ class ClusterGeometry:
         """dH/dbeta per unit rotor momentum, (..., 3, 4): column i = -sin b_i e_i + cos b_i s_i z
         (SEEDS §004 eq. (18) divided by h). Steering solves h J(b) b' = H' (eq. (17)). Leading
         dimensions of beta (a recorded history) broadcast."""
-        return np.swapaxes(self._turned_axes(beta)[1].copy(), -1, -2)
+        return np.swapaxes(self.turned_axes(beta)[1].copy(), -1, -2)
 
     def unit_jacobian_derivative(self, beta):
         """dJ_i/dbeta_i of the unit Jacobian, (3, 4): column i = -(cos b_i e_i + sin b_i s_i z),

@@ -28,7 +28,7 @@ feedforward  the same PD loop, softer (w_n of a few rad/s), plus one motor per g
     delta_k+1^ = 2 delta_k - delta_k-1 + D (second difference of the PD-weighted mean gimbal
     angles over the ticks k-1, k and k+1, the coming one predicted with the rate ramping to the
     command): the gyroscopic torque h_i w . J_i changes with the angles as the bus turns under the
-    cluster and J_i turns with its gimbal (D = `angle_sensitivity`), so when the rates jump its
+    cluster and J_i turns with its gimbal (D, `angle_sensitivity_times`), so when the rates jump its
     slope jumps with them, which a linear extrapolation alone misses by a few % of the jump on
     the next tick. What is left is the curvature of the rest (second order in Tc).
     Before t = 0 the servo held the gimbal at
@@ -226,30 +226,34 @@ class FeedForwardServo(IntVelocityServo):
         # commanded: the rotational block of the inverse of the bus's 6x6 block of M
         full = np.zeros((self.model.nv, self.model.nv))
         mujoco.mj_fullM(self.model, data, full)
-        self._bus_response = np.linalg.inv(full[np.ix_(self._bus_dofs, self._bus_dofs)])[3:, 3:]
+        self._bus_response = np.linalg.inv(full[np.ix_(self._bus_dofs, self._bus_dofs)])[3:, 3:].tolist()
         # the gimbals' angles and rates at the last tick and their weighted mean angles over
         # the last two ticks (at rest before t = 0)
         self._last_angle, self._last_rate = self._angle.tolist(), self._rate.tolist()
         self._mean_before = self._angle.tolist()
 
-    def angle_sensitivity(self) -> np.ndarray:
-        """D = d(delta')/d(beta') [N m s / rad], (4, 4), at the present state: the disturbance on
-        gimbal i is h_i w . J_i (the rotor's gyroscopic torque, J_i the unit torque axis), and it
-        changes as the bus turns under the cluster's torque, w' = -R sum_j h_j J_j b'_j (R the bus's
+    def angle_sensitivity_times(self, x: list) -> list:
+        """D x for D = d(delta')/d(beta') [N m s / rad], (4, 4), at the present state, and x a
+        list of four gimbal angles [rad]; D x [N m] as plain floats. The disturbance on gimbal i is
+        h_i w . J_i (the rotor's gyroscopic torque, J_i the unit torque axis), and it changes as
+        the bus turns under the cluster's torque, w' = -R sum_j h_j J_j b'_j (R the bus's
         rotational response), and as J_i turns with the gimbal, dJ_i/db_i = -s_i:
-        D_ij = -h_i h_j J_i^T R J_j - [i = j] h_i w . s_i (docs/theory/gimbal-servo.md).
-        The products over the axes in numpy, the 4 x 4 scaling in plain floats (cheaper for
-        16 numbers, and the same ones)."""
-        beta = self._angle
+        D_ij = -h_i h_j J_i^T R J_j - [i = j] h_i w . s_i (docs/theory/gimbal-servo.md), so
+        (D x)_i = -h_i (J_i . R sum_j h_j x_j J_j + (w . s_i) x_i): D itself is never formed.
+        J_i and s_i are the cluster's turned axes, kept for the tick's angles (the steering stage
+        asks for the same ones); the rest in plain floats (cheaper than numpy for 4 x 3 numbers)."""
+        spin, columns = self.geometry.turned_axes(self._angle)
+        spin, columns = spin.tolist(), columns.tolist()
         h = (self.geometry.spin_inertia * self._rotor_rate).tolist()
-        jacobian = self.geometry.unit_jacobian(beta)  # (3, 4)
-        spin = self.geometry.spin_axes(beta)  # (4, 3)
-        coupling = (jacobian.T @ self._bus_response @ jacobian).tolist()
-        turning = (spin @ self._bus_rate).tolist()  # w . s_i
-        sensitivity = [[-(h_i * c * h_j) for c, h_j in zip(row, h)] for h_i, row in zip(h, coupling)]
-        for i, (h_i, w_s) in enumerate(zip(h, turning)):
-            sensitivity[i][i] -= h_i * w_s
-        return np.array(sensitivity)
+        w0, w1, w2 = self._bus_rate.tolist()
+        t0 = t1 = t2 = 0.0  # sum_j h_j x_j J_j
+        for h_j, x_j, (a, b, c) in zip(h, x, columns):
+            k = h_j * x_j
+            t0, t1, t2 = t0 + k * a, t1 + k * b, t2 + k * c
+        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = self._bus_response
+        u0, u1, u2 = r00 * t0 + r01 * t1 + r02 * t2, r10 * t0 + r11 * t1 + r12 * t2, r20 * t0 + r21 * t1 + r22 * t2
+        return [-h_i * (a * u0 + b * u1 + c * u2 + (sa * w0 + sb * w1 + sc * w2) * x_i)
+                for h_i, x_i, (a, b, c), (sa, sb, sc) in zip(h, x, columns, spin)]
 
     def _angle_correction(self, command: list, angle: list, rate: list) -> list:
         """D times the second difference of the PD-weighted mean gimbal angle over the last two
@@ -262,7 +266,7 @@ class FeedForwardServo(IntVelocityServo):
         mean_next = [a + r * m1 + (c - r) * ramp for a, r, c in zip(angle, rate, command)]
         second = [n - 2.0 * last + before for n, last, before in zip(mean_next, mean_last, self._mean_before)]
         self._mean_before, self._last_angle, self._last_rate = mean_last, angle, rate
-        return (self.angle_sensitivity() @ np.array(second)).tolist()
+        return self.angle_sensitivity_times(second)
 
     def apply(self, data, rates) -> None:
         """This tick's command: the observer's update from the last tick, then the held
