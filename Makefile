@@ -22,11 +22,14 @@ docs: .venv/.installed
 fuzz: .venv/.installed
 	TESTBED_FUZZ_EXAMPLES=3000 $(PY) -m pytest tests/test_fuzz.py
 
+# The last one fails (exit 1) when a shipped scenario's wall time per simulated second grew by
+# more than 15 % against the commit in bench/speed_baseline.json, both run here, alternately.
 bench: .venv/.installed
 	$(PY) bench/bench_pipeline.py
 	$(PY) bench/bench_minimax.py
 	$(PY) bench/bench_sweep.py
 	$(PY) bench/bench_stepping.py
+	$(PY) bench/bench_speed_regression.py
 
 .venv/.installed: pyproject.toml requirements.lock
 	python3 -m venv .venv
