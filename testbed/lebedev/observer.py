@@ -261,6 +261,9 @@ class LebedevObserver:
         self.decay = float(np.min(-self.poles.real)) / 2
         self.info: np.ndarray | None = None
         self.a, self.A = lebedev_matrices(self.inertia, self.spin_rate)
+        # the fixed-gain derivative's constants as floats (_fixed_gain_derivative)
+        self._c_floats, self._a_floats = self.C.tolist(), self.a.tolist()
+        self._l_closed_floats = self.l_closed.tolist()
         if not max_substep > 0:
             raise InputError("observer.max_substep", f"must be > 0, got {max_substep}")
         self.max_substep = float(max_substep)
@@ -336,7 +339,7 @@ class LebedevObserver:
         w_hat continuously (the continuous loop)."""
         z = state[:3]
         if not self.measured_momentum or momentum is None:
-            return self._fixed_gain_derivative(z, y_dev, u)
+            return self._fixed_gain_derivative(z, y_dev, np.asarray(u, dtype=float).tolist())
         model = self.A @ z + lebedev_nonlinearity(self.a, z) + u
         if compensated is not None:
             model = model + (compensated - cross3(z + [0.0, 0.0, self.spin_rate], momentum)) / self.inertia
@@ -345,19 +348,21 @@ class LebedevObserver:
     def _output_error(self, x: list, y_dev: float) -> float:
         """y_dev - C x for the state x as plain floats, C x summed left to right as numpy's dot
         of two 3-vectors does."""
-        c = self.C.tolist()
+        c = self._c_floats
         return y_dev - (c[0] * x[0] + c[1] * x[1] + c[2] * x[2])
 
-    def _fixed_gain_derivative(self, z, y_dev, u) -> np.ndarray:
-        """A z + l_closed (y_dev - C z) + F(z) + u (`closed_derivative` with the fixed gain),
-        summed in that order. Plain floats but for A z (numpy's matmul, whose rounding it keeps):
-        RK4 evaluates it four times a control period, and numpy's calls on 3-vectors cost more
-        than their arithmetic."""
-        x = z.tolist()
+    def _fixed_gain_derivative(self, z, y_dev, u: list) -> np.ndarray:
+        """A z + l_closed (y_dev - C z) + F(z) + u (`closed_derivative` with the fixed gain; u as
+        three floats), summed in that order. Plain floats but for A z (numpy's matmul, whose
+        rounding it keeps): RK4 evaluates it four times a control period, and numpy's calls on
+        3-vectors cost more than their arithmetic; the constants' floats are taken once
+        (`__init__`), u's once a period (`step`)."""
+        x0, x1, x2 = x = z.tolist()
         error = self._output_error(x, y_dev)
-        terms = zip((self.A @ z).tolist(), self.l_closed.tolist(), lebedev_nonlinearity(self.a.tolist(), x).tolist(),
-                    np.asarray(u, dtype=float).tolist())
-        return np.array([linear + g * error + quadratic + input_ for linear, g, quadratic, input_ in terms])
+        a0, a1, a2 = self._a_floats
+        quadratic = (a0 * x1 * x2, a1 * x0 * x2, a2 * x0 * x1)  # lebedev_nonlinearity(a, x)
+        terms = zip((self.A @ z).tolist(), self._l_closed_floats, quadratic, u)
+        return np.array([linear + g * error + q + input_ for linear, g, q, input_ in terms])
 
     def hold_total_momentum(self, modelled, measured) -> None:
         """Re-anchor the estimate on a measured internal momentum: keep the total momentum in
@@ -434,7 +439,10 @@ class LebedevObserver:
         when it is not given).
         """
         u = np.asarray(u, dtype=float)
-        if momentum is None or momentum_rate is None:
+        if not self.measured_momentum or momentum is None:  # the fixed gain: u's floats once a period
+            held = u.tolist()
+            rhs = lambda state, y_dev, _: self._fixed_gain_derivative(state[:3], y_dev, held)  # noqa: E731
+        elif momentum_rate is None:
             rhs = lambda state, y_dev, _: self.closed_derivative(state, y_dev, u, momentum, compensated)  # noqa: E731
         else:
             start, change = np.asarray(momentum, float), dt * np.asarray(momentum_rate, float)
