@@ -8,6 +8,7 @@ The plant, the servos, the faults, the reduced model and the cluster geometry ar
 machinery of testbed/systems/cmg_rhombus, which reads every unit from the compiled model.
 """
 
+from testbed.systems.cmg_cluster import envelope_command  # noqa: F401  (register)
 from testbed.systems.cmg_cluster.model import CmgClusterParams, build
 from testbed.systems.cmg_rhombus import MAX_DT_OVER_ROTOR_TAU, CmgPlant
 from testbed.systems.cmg_rhombus.faults import check_fault_times
