@@ -300,3 +300,11 @@ def test_osr_escapes_the_pyramids_singular_start_that_pinv_cannot():
     assert g.singularity_measure(beta) >= 0.5
     delivered = g.unit_jacobian(beta) @ steer("osr", g.unit_jacobian(beta), 1.0, b, rate_max, t=6.0).beta_rate
     assert np.linalg.norm(delivered - b) <= 1e-4 * np.linalg.norm(b)
+
+
+def test_one_unbalanced_rotor_leaves_the_others_balanced():
+    """Imbalance given for one list only: the other list is every rotor balanced, one per unit."""
+    scenario = load_scenario("six_unit_slew", ["model.rotor_static_imbalance_kg_m=[1e-6, 0, 0, 0, 0, 2e-6]"])
+    assert scenario.model.rotor_dynamic_imbalance_kg_m2 == [0.0] * 6
+    with pytest.raises(InputError, match="model.rotor_static_imbalance_kg_m"):
+        load_scenario("six_unit_slew", ["model.rotor_static_imbalance_kg_m=[1e-6, 0]"])

@@ -33,7 +33,8 @@ class CmgClusterParams(CmgUnitsParams):
         products_of_inertia_kg_m2: (Ixy, Ixz, Iyz), the tensor's off-diagonal entries (its
         eigenvalues must be positive and obey the triangle inequality).
     gimbal_angles_deg: the initial angles, one per unit; None: the array's own (arrays.py).
-    rotor_static_imbalance_kg_m, rotor_dynamic_imbalance_kg_m2: one per unit; [] for none.
+    rotor_static_imbalance_kg_m, rotor_dynamic_imbalance_kg_m2: one per unit; [] (the default):
+        every rotor balanced.
     The other fields are CmgRhombusParams's, for every unit.
     """
 
@@ -65,6 +66,9 @@ class CmgClusterParams(CmgUnitsParams):
             values = getattr(self, name)
             if values and len(values) != count:
                 raise InputError(join(path, name), f"gives {len(values)} values; the array has {count} units")
+        for name in ("rotor_static_imbalance_kg_m", "rotor_dynamic_imbalance_kg_m2"):
+            if not getattr(self, name):  # none given: every rotor balanced
+                setattr(self, name, [0.0] * count)
         super().validate(path)
 
 
