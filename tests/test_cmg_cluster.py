@@ -308,3 +308,21 @@ def test_one_unbalanced_rotor_leaves_the_others_balanced():
     assert scenario.model.rotor_dynamic_imbalance_kg_m2 == [0.0] * 6
     with pytest.raises(InputError, match="model.rotor_static_imbalance_kg_m"):
         load_scenario("six_unit_slew", ["model.rotor_static_imbalance_kg_m=[1e-6, 0]"])
+
+
+@pytest.mark.parametrize("argv, field", [
+    (["--array", "pyramid", "--count", "8", "--points", "20000"], "--points"),  # 128 surfaces x 20 000
+    (["--array", "pyramid", "--count", "9"], "--count"),
+    (["--array", "box", "--count", "6"], "--array.count"),
+    (["--array", "pyramid", "--skew-deg", "nan"], "--skew-deg"),
+    (["--array", "hexapod"], "--array"),
+    (["--alpha-deg", "45", "--count", "6"], "--count"),
+    (["pyramid_slew", "--array", "box"], "usage"),
+    (["gyrostat_free"], "scenario"),
+])
+def test_envelope_refuses_a_bad_cluster(argv, field, tmp_path, capsys):
+    out = tmp_path / "e.rrd"
+    assert main(["envelope", *argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith(f"error: {field}:"), err
+    assert not out.exists()

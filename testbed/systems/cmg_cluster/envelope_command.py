@@ -36,7 +36,8 @@ from testbed.systems.cmg_rhombus.momentum_gauge import envelope_support, support
 ALPHA_RANGE_DEG = (0.01, 89.99)  # at 0 or 90 deg the rhombus folds flat: the gimbal axes coincide
 SKEW_RANGE_DEG = (0.01, 90.0)
 H_RANGE_NMS = (1e-6, 1e9)        # rotor momenta the compiled model (rotor inertia h / Omega) can hold
-MAX_POINTS = 200_000  # directions per surface: 2^(n-1) surfaces of this many points stay well under a GB
+MAX_POINTS = 200_000  # directions per surface
+MAX_SURFACE_POINTS = 1_600_000  # points over all 2^(n-1) surfaces: the rhombus's 8 x 200 000, well under a GB
 RHOMBUS_EXTENTS = {"x": "4h cos a", "y": "4h sin a", "z": "4h"}  # SEEDS §004
 BUILD_DT_S = 1e-3  # the step the model is compiled with (nothing is stepped)
 
@@ -133,6 +134,10 @@ def run(args) -> int:
     else:
         cluster = cluster_of_scenario(args.scenario)
         label, title = Path(args.scenario).stem, f"scenario {args.scenario}"
+    surfaces = 2 ** (len(cluster.gimbal_axes) - 1)
+    if args.points * surfaces > MAX_SURFACE_POINTS:
+        raise InputError("--points", f"{args.points} directions on each of the {surfaces} surfaces exceed "
+                         f"{MAX_SURFACE_POINTS} points: at most {MAX_SURFACE_POINTS // surfaces}")
     out = output_path(args.out or Path("runs") / f"envelope_{label}.rrd")
     summary = envelope_summary(cluster)
     write_envelope_rrd(out, None, cluster.rotor_momentum, args.points, axes=cluster.gimbal_axes)
