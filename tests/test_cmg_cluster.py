@@ -326,3 +326,20 @@ def test_envelope_refuses_a_bad_cluster(argv, field, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and err.startswith(f"error: {field}:"), err
     assert not out.exists()
+
+
+def test_a_custom_unit_has_its_own_masses_and_gimbal_inertia():
+    """A unit's own rotor and gimbal masses and gimbal inertia reach the compiled model; the
+    inertia about its gimbal axis is the frame's plus the rotor's transverse one, 0.6 Js (by hand)."""
+    axes = [([1, 0, 0], [0, 1, 0]), ([0, 1, 0], [0, 0, 1]), ([0, 0, 1], [1, 0, 0]), ([0.6, 0.8, 0], [0, 0, 1])]
+    units = [UnitParams(gimbal_axis=g, spin_axis=e) for g, e in axes]
+    units[3].rotor_momentum_nms, units[3].rotor_mass_kg, units[3].gimbal_mass_kg = 40.0, 20.0, 8.0
+    units[3].gimbal_inertia_kg_m2 = [0.05, 0.04, 0.03]
+    params = CmgClusterParams(array=ArrayParams(preset="custom", units=units))
+    model = build(params, 1e-3)
+    assert model.body("rotor4").mass[0] == 20.0 and model.body("gimbal4").mass[0] == 8.0
+    assert model.body("rotor1").mass[0] == params.rotor_mass_kg
+    bus = CmgRhombus(model)
+    spin = 40.0 / params.rotor_speed
+    assert bus.geometry.gimbal_axis_inertia[3] == pytest.approx(0.05 + 0.6 * spin, rel=1e-12)
+    assert bus.geometry.gimbal_axis_inertia[0] == pytest.approx(0.03 + 0.6 * 50.0 / params.rotor_speed, rel=1e-12)

@@ -33,8 +33,8 @@ import math
 
 import numpy as np
 
-from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
 from testbed.errors import InputError
+from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
 from testbed.steering.minimax_lp import minimax_lp_steering, nullspace_lp_rates
 from testbed.steering.result import SteeringResult, limited_result, status_string
 from testbed.math.validation import number_in

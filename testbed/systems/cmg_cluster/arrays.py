@@ -16,7 +16,8 @@ from. The presets (docs/your-spacecraft.md draws each):
   (45, -45, 45, -45) deg (H = 0, full rank).
 - `three_orthogonal`: gimbal axes x, y, z, spins y, z, x at zero angle (no redundancy).
 - `rhombus`: the seed's layout (SEEDS §004, alpha `alpha_deg`), as the `cmg_rhombus` system builds it.
-- `custom`: `units:` [{gimbal_axis, spin_axis, position_m, rotor_momentum_nms}], 3 ... 8 of them.
+- `custom`: `units:` [{gimbal_axis, spin_axis, position_m}], 3 ... 8 of them, each with its own
+  rotor_momentum_nms, rotor_mass_kg, gimbal_mass_kg, gimbal_inertia_kg_m2 where it differs from the model's.
 
 Presets mount unit i at `mount_distance_m` from the bus origin, balanced so that the units' CoM
 is the origin.
@@ -30,7 +31,7 @@ from typing import Literal
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.math.validation import check_unit_vector
+from testbed.math.validation import check_principal_inertia, check_unit_vector
 from testbed.scenario.schema import join, param
 from testbed.systems.cmg_rhombus.cluster import rhombus_axes
 
@@ -51,6 +52,14 @@ class UnitParams:
     spin_axis: list[float] = param(length=3, doc="unit spin axis at zero gimbal angle, normal to g_i")
     position_m: list[float] = param([0.0, 0.0, 0.0], length=3, doc="where the gimbal sits on the bus")
     rotor_momentum_nms: float | None = param(None, gt=0, doc="h_i; None: the model's rotor_momentum_nms")
+    rotor_mass_kg: float | None = param(None, gt=0, doc="None: the model's rotor_mass_kg")
+    gimbal_mass_kg: float | None = param(None, gt=0, doc="None: the model's gimbal_mass_kg")
+    gimbal_inertia_kg_m2: list[float] | None = param(None, length=3, gt=0, doc=(
+        "principal inertia of the gimbal frame about (gimbal axis, spin axis, third); None: the model's"))
+
+    def validate(self, path: str) -> None:
+        if self.gimbal_inertia_kg_m2 is not None:
+            check_principal_inertia(self.gimbal_inertia_kg_m2, join(path, "gimbal_inertia_kg_m2"))
 
 
 @dataclass(kw_only=True)
@@ -80,14 +89,15 @@ class ArrayParams:
 @dataclass
 class ArrayLayout:
     """The units of an array, bus frame: gimbal_axes g_i and spin_axes e_i at zero angle (n, 3)
-    unit vectors with g_i . e_i = 0, positions [m] (n, 3), rotor_momenta h_i [N m s] (n,) (NaN:
-    the model's common value) and the initial gimbal_angles_deg (n,)."""
+    unit vectors with g_i . e_i = 0, positions [m] (n, 3), the initial gimbal_angles_deg (n,) and
+    what a unit has of its own (`own`: a custom unit's UnitParams, None for a preset's), where it
+    differs from the model's common rotor momentum, masses and gimbal inertia."""
 
     gimbal_axes: np.ndarray
     spin_axes: np.ndarray
     positions: np.ndarray
-    rotor_momenta: np.ndarray
     gimbal_angles_deg: np.ndarray
+    own: list[UnitParams | None]
 
     @property
     def count(self) -> int:
@@ -138,7 +148,7 @@ def pyramid_axes(count: int, skew: float) -> tuple[np.ndarray, np.ndarray, np.nd
 def _preset(g, e, positions, angles) -> ArrayLayout:
     count = len(g)
     return ArrayLayout(np.asarray(g, float), np.asarray(e, float), np.asarray(positions, float),
-                       np.full(count, np.nan), np.asarray(angles, float))
+                       np.asarray(angles, float), [None] * count)
 
 
 def _custom(units: list[UnitParams], path: str) -> ArrayLayout:
@@ -156,5 +166,4 @@ def _custom(units: list[UnitParams], path: str) -> ArrayLayout:
         g.append(gimbal)
         e.append(spin / np.linalg.norm(spin))
     positions = np.array([unit.position_m for unit in units], dtype=float)
-    momenta = np.array([np.nan if unit.rotor_momentum_nms is None else unit.rotor_momentum_nms for unit in units])
-    return ArrayLayout(np.array(g), np.array(e), positions, momenta, np.zeros(len(units)))
+    return ArrayLayout(np.array(g), np.array(e), positions, np.zeros(len(units)), list(units))

@@ -17,9 +17,10 @@ from testbed.errors import InputError
 from testbed.math.validation import check_principal_inertia
 from testbed.scenario.schema import join, param
 from testbed.scenario.shipped_files import load_spec
-from testbed.systems.cmg_cluster.arrays import ArrayLayout, ArrayParams, layout
+from testbed.systems.cmg_cluster.arrays import ArrayLayout, ArrayParams, UnitParams, layout
 from testbed.systems.cmg_rhombus.cluster import unit_names
-from testbed.systems.cmg_rhombus.model import INITIAL_KEY, CmgUnitsParams, compile_units, unit_actuator_names
+from testbed.systems.cmg_rhombus.model import (INITIAL_KEY, CmgUnitsParams, UnitBuild, compile_units,
+                                              unit_actuator_names)
 from testbed.systems.free_bus import BUS_BODY, set_bus_inertia_tensor
 
 ROTOR_QUAT = [0.70710678, -0.70710678, 0.0, 0.0]  # rotor local z = gimbal local y (the spin axis e_i)
@@ -79,9 +80,20 @@ def build(params: CmgClusterParams, dt: float, integrator: str = "RK4") -> mujoc
     set_bus_inertia_tensor(spec, params.inertia_tensor(), params.mass_kg)
     units = params.units()
     add_units(spec, units.count)
-    momenta = np.where(np.isnan(units.rotor_momenta), params.rotor_momentum_nms, units.rotor_momenta)
     angles = units.gimbal_angles_deg if params.gimbal_angles_deg is None else params.gimbal_angles_deg
-    return compile_units(spec, params, dt, units.positions, units.frames(), momenta.tolist(), angles)
+    return compile_units(spec, params, dt, [unit_build(params, position, frame, own) for position, frame, own
+                                            in zip(units.positions, units.frames(), units.own)], angles)
+
+
+def unit_build(params: CmgClusterParams, position, frame, own: UnitParams | None) -> UnitBuild:
+    """One unit at `position` [m] with gimbal frame `frame`: its own rotor momentum, masses and
+    gimbal inertia where `own` gives them, the model's otherwise."""
+    def chosen(name: str, common):
+        value = None if own is None else getattr(own, name)
+        return common if value is None else value
+    return UnitBuild(position, frame, chosen("rotor_momentum_nms", params.rotor_momentum_nms),
+                     chosen("rotor_mass_kg", params.rotor_mass_kg), chosen("gimbal_mass_kg", params.gimbal_mass_kg),
+                     chosen("gimbal_inertia_kg_m2", params.gimbal_inertia_kg_m2))
 
 
 def add_units(spec, count: int) -> None:

@@ -43,7 +43,8 @@ MAX_DT_OVER_ROTOR_TAU = 0.5
 class CmgUnitsParams:
     """What every single-gimbal CMG spacecraft's `model:` block holds beside its bus inertia and
     its array: the rotors, gimbals, servos, limits and faults of its units (CmgRhombusParams
-    says what each field means). A subclass says how many units there are (`unit_count`)."""
+    says what each field means). A subclass declares its units' initial `gimbal_angles_deg` and says
+    how many units there are (`unit_count`)."""
 
     mass_kg: float = param(1000.0, gt=0)
     rotor_momentum_nms: float = param(50.0, gt=0, doc="h of each rotor at nominal speed")
@@ -149,46 +150,57 @@ def build(params: CmgRhombusParams, dt: float, integrator: str = "RK4") -> mujoc
     spec = load_spec("cmg_rhombus.xml", dt, integrator)
     set_bus_mass(spec, params.inertia_kg_m2, params.mass_kg)
     e, g, sz = rhombus_axes(np.radians(params.alpha_deg))
-    frames = [np.column_stack([g[i], e[i], sz[i]]) for i in range(N_CMG)]
-    positions = [params.cmg_distance_m * e[i] for i in range(N_CMG)]
-    return compile_units(spec, params, dt, positions, frames, [params.rotor_momentum_nms] * N_CMG,
-                         params.gimbal_angles_deg)
+    units = [UnitBuild(params.cmg_distance_m * e[i], np.column_stack([g[i], e[i], sz[i]]), params.rotor_momentum_nms,
+                       params.rotor_mass_kg, params.gimbal_mass_kg, params.gimbal_inertia_kg_m2) for i in range(N_CMG)]
+    return compile_units(spec, params, dt, units, params.gimbal_angles_deg)
 
 
-def compile_units(spec, params: CmgUnitsParams, dt: float, positions, frames, rotor_momenta,
+@dataclass
+class UnitBuild:
+    """One unit as compile_units places and sizes it: its position [m] (bus frame), its gimbal
+    frame (3, 3) (columns: gimbal axis g_i, spin axis at beta = 0 e_i, g_i x e_i), its rotor
+    momentum at the nominal speed [N m s], rotor and gimbal-frame masses [kg] and the gimbal frame's
+    principal inertia about (g_i, e_i, g_i x e_i) [kg m^2]."""
+
+    position: np.ndarray
+    frame: np.ndarray
+    rotor_momentum: float
+    rotor_mass: float
+    gimbal_mass: float
+    gimbal_inertia: list[float]
+
+
+def compile_units(spec, params: CmgUnitsParams, dt: float, units: list[UnitBuild],
                   gimbal_angles_deg) -> mujoco.MjModel:
-    """Apply the units' fields of `params` to a spec that holds the units' bodies, joints and
-    actuators by name (unit_names, unit_actuator_names), and compile it. Unit i sits at
-    positions[i] [m] (bus frame) with its gimbal frame frames[i] (columns: gimbal axis g_i, spin
-    axis at beta = 0 e_i, g_i x e_i) and rotor momentum rotor_momenta[i] [N m s] at the nominal
-    speed; gimbal_angles_deg: the initial angles."""
+    """Apply `units` and the common fields of `params` (rotor speed and shape, servos, limits,
+    friction) to a spec that holds the units' bodies, joints and actuators by name (unit_names,
+    unit_actuator_names), and compile it; gimbal_angles_deg: the initial angles."""
     omega_rotor = params.rotor_speed
     ratio = params.rotor_transverse_ratio
-    gimbal_inertia = np.asarray(params.gimbal_inertia_kg_m2, float)
     tau = params.rotor_speed_time_constant_s
     if dt / tau > MAX_DT_OVER_ROTOR_TAU:
         raise InputError("model.rotor_speed_time_constant_s",
                          f"{tau} s is too short for timestep {dt} s under RK4")
-    units = len(frames)
-    gimbals, rotors = unit_names(units)
-    gimbal_servos, rotor_servos, gimbal_motors = unit_actuator_names(units)
-    for i in range(units):
-        spin_inertia = rotor_momenta[i] / omega_rotor
+    gimbals, rotors = unit_names(len(units))
+    gimbal_servos, rotor_servos, gimbal_motors = unit_actuator_names(len(units))
+    for i, unit in enumerate(units):
+        spin_inertia = unit.rotor_momentum / omega_rotor
         rotor_inertia = np.array([ratio, ratio, 1.0]) * spin_inertia  # rotor spin axis = local z
+        gimbal_inertia = np.asarray(unit.gimbal_inertia, float)
         gimbal_axis_inertia = gimbal_inertia[0] + rotor_inertia[0]  # rotor transverse about g
         kp, kv = servo_gains(params, dt, gimbal_axis_inertia)
         rotor_kv = spin_inertia / tau
         gimbal = spec.body(gimbals[i])
-        gimbal.pos = positions[i]
+        gimbal.pos = unit.position
         # gimbal frame: x = g_i (hinge axis in the XML), y = e_i (rotor spin), z = g_i x e_i
         quat = np.zeros(4)
-        mujoco.mju_mat2Quat(quat, frames[i].ravel())
+        mujoco.mju_mat2Quat(quat, np.asarray(unit.frame, float).ravel())
         gimbal.quat = quat
-        gimbal.mass = params.gimbal_mass_kg
+        gimbal.mass = unit.gimbal_mass
         gimbal.inertia = gimbal_inertia
         gimbal.ipos = np.zeros(3)
         rotor = spec.body(rotors[i])
-        rotor.mass = params.rotor_mass_kg
+        rotor.mass = unit.rotor_mass
         rotor.inertia = rotor_inertia
         rotor.ipos = np.zeros(3)
 
@@ -210,7 +222,7 @@ def compile_units(spec, params: CmgUnitsParams, dt: float, positions, frames, ro
             spec.delete(spec.actuator(gimbal_motors[i]))  # the intvelocity servo has no motor
 
     spec.numeric(ROTOR_SPEED_NUMERIC).data = [omega_rotor]
-    motors = units if params.servo_model == "feedforward" else 0
+    motors = len(units) if params.servo_model == "feedforward" else 0
     _write_initial_key(spec, np.radians(gimbal_angles_deg), omega_rotor, motors)
     return compile_model(spec)
 
