@@ -343,3 +343,25 @@ def test_a_custom_unit_has_its_own_masses_and_gimbal_inertia():
     spin = 40.0 / params.rotor_speed
     assert bus.geometry.gimbal_axis_inertia[3] == pytest.approx(0.05 + 0.6 * spin, rel=1e-12)
     assert bus.geometry.gimbal_axis_inertia[0] == pytest.approx(0.03 + 0.6 * 50.0 / params.rotor_speed, rel=1e-12)
+
+
+@pytest.mark.parametrize("units", [4, 6])
+def test_sign_pattern_surfaces_are_singular_states_of_any_array(units):
+    """The singular momenta h_i = eps_i h (g_i x u) x g_i / |g_i x u| (momentum_envelope.py) of a
+    pyramid, turned into gimbal angles (atan2 in each unit's plane e_i, g_i x e_i), are states
+    where u is normal to every torque axis: u . J = 0 and sqrt det(J J^T) = 0 (to rounding), and
+    H(beta) is their sum; the pattern of all +1 gives S(u) = u . H (the envelope)."""
+    from testbed.systems.cmg_rhombus.momentum_envelope import singular_momenta
+    from testbed.systems.cmg_rhombus.momentum_gauge import envelope_support
+
+    g = geometry(ArrayParams(count=units), rotor_momentum_nms=2.0)
+    for u in RNG.normal(size=(4, 3)):
+        u /= np.linalg.norm(u)
+        for signs in ([1] * units, [1, -1] * (units // 2), [1] * (units - 1) + [-1]):
+            momenta = singular_momenta(u, signs, g.gimbal_axes, 2.0)[0]
+            beta = np.arctan2(np.einsum("ia,ia->i", momenta, g.turn_axes), np.einsum("ia,ia->i", momenta, g.spin_axes_zero))
+            np.testing.assert_allclose(g.momentum(beta), momenta.sum(axis=0), atol=1e-12)
+            np.testing.assert_allclose(u @ g.unit_jacobian(beta), 0.0, atol=1e-12)
+            assert g.singularity_measure(beta) < 1e-6  # sqrt of a determinant at rounding: ~1e-8
+        envelope = singular_momenta(u, [1] * units, g.gimbal_axes, 2.0)[0].sum(axis=0)
+        assert u @ envelope == pytest.approx(envelope_support(u[None], g.gimbal_axes, 2.0)[0], rel=1e-12)
