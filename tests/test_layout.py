@@ -155,7 +155,7 @@ def test_every_subcommand_registers_one_way_in_the_module_that_implements_it():
     assert {name: add_parser.__module__ for name, add_parser in COMMANDS.items()} == {
         "run": "testbed.cli.run", "check": "testbed.cli.run", "list": "testbed.cli.list_scenarios",
         "inspect": "testbed.cli.inspect_trace", "sweep": "testbed.cli.campaign", "describe": "testbed.cli.describe",
-        "init": "testbed.cli.init", "envelope": "testbed.systems.cmg_rhombus.envelope_command"}
+        "init": "testbed.cli.init", "envelope": "testbed.systems.cmg_cluster.envelope_command"}
     assert {m.__name__ for m in BUILT_IN_COMMANDS} == {add_parser.__module__ for _, add_parser in COMMANDS.items()
                                                        if add_parser.__module__.startswith("testbed.cli.")}
 

@@ -322,7 +322,7 @@ def test_registry_runs_the_named_law_with_its_options():
     (lambda J: steer("pinv", J, 1.0, [1, 0, 0], -1.0), "steering.beta_rate_max"),
     (lambda J: steer("sr", J, 1.0, [1, 0, 0], float("nan")), "steering.beta_rate_max"),
     (lambda J: steer("minimax", J, 0.0, [1, 0, 0], 1.0), "steering.h"),
-    (lambda J: steer("minimax", J[:, :3], 1.0, [1, 0, 0], 1.0), "steering.J"),
+    (lambda J: steer("minimax", J[:, :2], 1.0, [1, 0, 0], 1.0), "steering.J"),  # 3 ... 8 units
     (lambda J: steer("minimax", J * np.nan, 1.0, [1, 0, 0], 1.0), "steering.J"),
     (lambda J: steer("pinv", J, 1.0, [1, 0], 1.0), "steering.Hdot"),
     (lambda J: steer("pinv", J, 1.0, [1, 0, np.inf], 1.0), "steering.Hdot"),

@@ -1,7 +1,7 @@
-"""CMG steering laws: gimbal rates beta' (4,) that deliver a wanted momentum rate H'.
+"""CMG steering laws: gimbal rates beta' (n,) that deliver a wanted momentum rate H'.
 
-The cluster obeys h J(beta) beta' = H' (SEEDS §004 eq. 17), J the 3x4 unit-h Jacobian
-supplied by the caller. Every law has the signature
+The cluster obeys h J(beta) beta' = H' (SEEDS §004 eq. 17), J the 3xn unit-h Jacobian of n = 3 ... 8
+units supplied by the caller (FOUR_UNIT_LAWS: those that take n = 4 only). Every law has the signature
 
     law(J, h, Hdot, beta_rate_max, **options) -> SteeringResult
 
@@ -54,6 +54,9 @@ STEERING_LAWS = {
     "sda": sda_steering,
     "pga": pga_steering,
 }
+
+# Laws that steer 4-unit clusters only, with the reason (the stage refuses any other array before the run).
+FOUR_UNIT_LAWS = {"minimax_avoid": "its barrier and its pull back work on the one-dimensional null space of 4 units"}
 
 # Keyword arguments a caller supplies at each step (see the module doc), not user options.
 STEP_INPUTS = frozenset({"t", "column_derivative", "rate_bounds", "gimbal_angle", "preferred_gimbal_angles",

@@ -241,7 +241,7 @@ def minimax_avoid_steering(J, h, Hdot, beta_rate_max, *, column_derivative=None,
     rate_fraction = number_in("steering.preference_rate_fraction", preference_rate_fraction, 0.0, 1.0)
     peak_so_far = number_in("steering.peak_rate_so_far", peak_rate_so_far, 0.0, math.inf, high_open=True)
     preference = checked_preference(gimbal_angle, preferred_gimbal_angles, preferred_jacobian, floor, rcond)
-    lo, hi = checked_rate_bounds(rate_bounds, beta_rate_max)
+    lo, hi = checked_rate_bounds(rate_bounds, beta_rate_max, len(rows[0]))
     J = np.array(rows)
     b = np.array(hdot) / h
     svd = jacobian_svd(J, rcond)

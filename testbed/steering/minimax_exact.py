@@ -1,4 +1,5 @@
-"""Exact closed-form min-max steering for a 4-gimbal cluster (SEEDS §004 eq. (21)-(27)).
+"""Exact closed-form min-max steering for a 4-gimbal cluster (SEEDS §004 eq. (21)-(27)); a
+cluster of n != 4 units takes the LP over its (n - 3)-dimensional null space (minimax_lp.py).
 
 A 3x4 J of rank 3 has a one-dimensional null space n, so every solution of J beta' = b is
 beta' = x + t n (t real), and the min-max objective f(t) = max_i |x_i + t n_i| is convex and
@@ -32,8 +33,9 @@ import math
 
 import numpy as np
 
+from testbed.errors import InputError
 from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
-from testbed.steering.minimax_lp import nullspace_lp_rates
+from testbed.steering.minimax_lp import minimax_lp_steering, nullspace_lp_rates
 from testbed.steering.result import SteeringResult, limited_result, status_string
 from testbed.math.validation import number_in
 from testbed.steering.validation import checked_problem, checked_rate_bounds
@@ -150,6 +152,11 @@ def minimax_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND,
         rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
     if null_motion_price != 0.0:
         null_motion_price = number_in("steering.null_motion_price", null_motion_price, 0.0, 1.0)
+    if len(rows[0]) != 4:  # a null space of n - 3 dimensions: the LP over it (minimax_lp)
+        if null_motion_price != 0.0:
+            raise InputError("steering.null_motion_price", f"prices a one-dimensional null space: a 4-unit "
+                             f"cluster's, not {len(rows[0])} units'")
+        return minimax_lp_steering(np.array(rows), h, hdot, beta_rate_max, rcond=rcond, rate_bounds=rate_bounds)
     b = (hdot[0] / h, hdot[1] / h, hdot[2] / h)
     n = cofactor_null_vector(rows)
     measure = math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3])  # Cauchy-Binet
@@ -170,7 +177,7 @@ def minimax_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND,
             lp_failed = lp is None
             beta = (p if lp_failed else lp).tolist()
     if rate_bounds is not None:
-        bounds = checked_rate_bounds(rate_bounds, beta_rate_max)
+        bounds = checked_rate_bounds(rate_bounds, beta_rate_max, len(rows[0]))
         return limited_result(np.array(rows), h, np.array(beta), beta_rate_max, measure, rank, lp_failed,
                               bounds=bounds)
     # Rate limit (eq. 4): the min-max optimum scales linearly with the demand.

@@ -44,17 +44,17 @@ HIGHS_OPTIONS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolera
 
 
 def epigraph_lp_rates(J: np.ndarray, b: np.ndarray) -> np.ndarray | None:
-    """argmin max|beta'_i| s.t. J beta' = b, via the LP in (beta', s); None if HiGHS fails.
-
-    b must lie in range(J) (always true at rank 3; project it first otherwise).
+    """argmin max|beta'_i| s.t. J beta' = b (J: 3 x n), via the LP in (beta', s); None if HiGHS
+    fails. b must lie in range(J) (always true at rank 3; project it first otherwise).
     """
-    I = np.eye(4)
-    a_ub = np.block([[I, -np.ones((4, 1))], [-I, -np.ones((4, 1))]])  # +-beta'_i - s <= 0
+    units = J.shape[1]
+    I = np.eye(units)
+    a_ub = np.block([[I, -np.ones((units, 1))], [-I, -np.ones((units, 1))]])  # +-beta'_i - s <= 0
     a_eq = np.hstack([J, np.zeros((3, 1))])
-    bounds = [(None, None)] * 4 + [(0, None)]
-    res = linprog(np.r_[0, 0, 0, 0, 1.0], A_ub=a_ub, b_ub=np.zeros(8), A_eq=a_eq, b_eq=b,
+    bounds = [(None, None)] * units + [(0, None)]
+    res = linprog(np.r_[np.zeros(units), 1.0], A_ub=a_ub, b_ub=np.zeros(2 * units), A_eq=a_eq, b_eq=b,
                   bounds=bounds, method="highs", options=HIGHS_OPTIONS)
-    return res.x[:4] if res.status == 0 else None
+    return res.x[:units] if res.status == 0 else None
 
 
 def paper_lp_rates(J: np.ndarray, b: np.ndarray) -> np.ndarray | None:
@@ -85,14 +85,17 @@ def paper_lp_rates(J: np.ndarray, b: np.ndarray) -> np.ndarray | None:
 def nullspace_lp_rates(p: np.ndarray, null_rows: np.ndarray) -> np.ndarray | None:
     """argmin max|beta'_i| over beta' = p + N^T z, via the LP in (z, s); None if HiGHS fails.
 
-    The paper's reduction (22)-(27) generalised to any null-space dimension d = 4 - rank:
-    the solution set of J beta' = b is parametrised exactly (p: minimum-norm solution, rows of
-    null_rows: an orthonormal basis of ker J), so the LP only chooses z and J beta' = b holds
-    to rounding. Used at rank J < 3, where d >= 2 and the 1-D paper form does not apply.
+    The paper's reduction (22)-(27) generalised to any null-space dimension d = n - rank for n
+    units: the solution set of J beta' = b is parametrised exactly (p: minimum-norm solution,
+    rows of null_rows: an orthonormal basis of ker J), so the LP only chooses z and J beta' = b
+    holds to rounding. Used where d != 1 (rank J < 3, or n > 4 units), where the 1-D paper form
+    does not apply; d = 0 (3 units at rank 3) leaves p itself.
     """
-    d = null_rows.shape[0]
-    N = null_rows.T  # (4, d)
-    a_ub = np.block([[N, -np.ones((4, 1))], [-N, -np.ones((4, 1))]])  # +-(p + N z) <= s
+    d, units = null_rows.shape[0], len(p)
+    if d == 0:
+        return p
+    N = null_rows.T  # (n, d)
+    a_ub = np.block([[N, -np.ones((units, 1))], [-N, -np.ones((units, 1))]])  # +-(p + N z) <= s
     res = linprog(np.r_[np.zeros(d), 1.0], A_ub=a_ub, b_ub=np.r_[-p, p],
                   bounds=[(None, None)] * d + [(0, None)], method="highs", options=HIGHS_OPTIONS)
     return p + N @ res.x[:d] if res.status == 0 else None
@@ -100,7 +103,8 @@ def nullspace_lp_rates(p: np.ndarray, null_rows: np.ndarray) -> np.ndarray | Non
 
 def minimax_lp_steering(J, h, Hdot, beta_rate_max, *, form: str = "paper",
                         rcond: float = DEFAULT_RCOND, rate_bounds=None) -> SteeringResult:
-    """Min-max gimbal rates (eq. 21) from scipy's HiGHS LP, rate-limited (eq. 4, 28).
+    """Min-max gimbal rates (eq. 21) from scipy's HiGHS LP, rate-limited (eq. 4, 28), for a
+    cluster of n units (J: 3 x n); the paper form is the 4-unit one, other n take the null-space LP.
 
     Rank J < 3 (SVD, tolerance rcond): minimises max|beta'_i| among the least-squares
     solutions, i.e. for the projection of H' onto range(J) (nullspace_lp_rates). If HiGHS reports no optimum
@@ -111,13 +115,13 @@ def minimax_lp_steering(J, h, Hdot, beta_rate_max, *, form: str = "paper",
     if form not in LP_FORMS:
         raise InputError("steering.form", f"must be one of {', '.join(LP_FORMS)}")
     rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
-    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max)
+    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max, len(rows[0]))
     J = np.array(rows)
     b = np.array(hdot) / h
     svd = jacobian_svd(J, rcond)
     if form == "epigraph":
         beta_rate = epigraph_lp_rates(J, b if svd.rank == 3 else project_onto_range(svd, b))
-    elif svd.rank == 3:
+    elif svd.rank == 3 and J.shape[1] == 4:
         beta_rate = paper_lp_rates(J, b)
     else:  # least-squares solutions p + N z; p = min-norm solution of the projected demand
         beta_rate = nullspace_lp_rates(min_norm_solution(svd, b), svd.null_space)

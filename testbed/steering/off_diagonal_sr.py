@@ -48,7 +48,7 @@ def osr_steering(J, h, Hdot, beta_rate_max, *, t: float = 0.0, lambda0: float = 
     weight = positive_number("steering.weight", weight, allow_inf=False)
     if weight <= lambda0:
         raise InputError("steering.weight", f"must exceed lambda0 = {lambda0:g} (W positive definite)")
-    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max)
+    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max, len(rows[0]))
     J = np.array(rows)
     svd = jacobian_svd(J, rcond)
     damping = wie_damping(svd.measure ** 2, lambda0, mu)

@@ -41,6 +41,11 @@ class PlannedAllocator(SteeringAllocator):
     law's momentum program (planned_path.py); refuses a program it cannot fly."""
 
     law_name = "pga"
+    four_units_only = "it plans along the one-dimensional fibres H(beta) = s d of 4 units"
+
+    @classmethod
+    def stage_name(cls) -> str:
+        return "planned"
 
     def __init__(self, params: PlannedParams, ctx):
         super().__init__(params, ctx)

@@ -32,7 +32,7 @@ def pga_steering(J, h, Hdot, beta_rate_max, *, gimbal_angle=None, preferred_gimb
     rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
     gain = number_in("steering.null_gain_per_s", null_gain_per_s, 0.0, math.inf, high_open=True)
     rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
-    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max)
+    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max, len(rows[0]))
     J = np.array(rows)
     svd = jacobian_svd(J, rcond)
     beta_rate = min_norm_solution(svd, np.array(hdot) / h)

@@ -24,7 +24,7 @@ def pinv_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND, ra
     """
     rows, h, hdot, beta_rate_max = checked_problem(J, h, Hdot, beta_rate_max)
     rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
-    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max)
+    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max, len(rows[0]))
     J = np.array(rows)
     svd = jacobian_svd(J, rcond)
     beta_rate = min_norm_solution(svd, np.array(hdot) / h)

@@ -45,7 +45,7 @@ def sda_steering(J, h, Hdot, beta_rate_max, *, lambda0: float = 0.01, mu: float 
     lambda0 = number_in("steering.lambda0", lambda0, 0.0, math.inf, high_open=True)
     mu = number_in("steering.mu", mu, 0.0, math.inf, high_open=True)
     rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
-    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max)
+    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max, len(rows[0]))
     J = np.array(rows)
     u, s, vt = np.linalg.svd(J, full_matrices=False)
     beta_rate = vt.T @ (sda_gains(s, lambda0, mu, rcond) * (u.T @ (np.array(hdot) / h)))

@@ -64,7 +64,7 @@ def sr_steering(J, h, Hdot, beta_rate_max, *, lambda0: float = 0.01, m0: float =
     lambda0 = number_in("steering.lambda0", lambda0, 0.0, math.inf)
     m0 = positive_number("steering.m0", m0, allow_inf=False)
     rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
-    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max)
+    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max, len(rows[0]))
     J = np.array(rows)
     b = np.array(hdot) / h
     svd = jacobian_svd(J, rcond)
@@ -103,7 +103,7 @@ def gsr_steering(J, h, Hdot, beta_rate_max, *, t: float = 0.0, lambda0: float = 
         phases = ()
     if len(phases) != 3 or not all(map(math.isfinite, phases)):
         raise InputError("steering.phases", "must be 3 finite angles [rad]")
-    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max)
+    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max, len(rows[0]))
     J = np.array(rows)
     svd = jacobian_svd(J, rcond)
     E = wie_dither_matrix(t, epsilon0, omega, phases)

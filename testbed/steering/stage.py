@@ -61,7 +61,7 @@ from testbed.errors import InputError
 from testbed.math.cross import cross3
 from testbed.pipeline import stage
 from testbed.scenario.schema import join, param
-from testbed.steering import LAW_OPTIONS, STEERING_LAWS, STEP_INPUTS
+from testbed.steering import FOUR_UNIT_LAWS, LAW_OPTIONS, STEERING_LAWS, STEP_INPUTS
 from testbed.steering.fault_isolation import FaultIsolation
 from testbed.steering.gimbal_limits import GimbalLimits
 from testbed.steering.result import status_code
@@ -121,6 +121,7 @@ def configured_limits(params: SteeringParams, ctx, gimbals: int) -> GimbalLimits
 class SteeringAllocator:
     output = "gimbal_rates"
     law_name = ""
+    four_units_only = ""  # why the allocator steers 4-unit clusters only; "": any cluster
 
     @classmethod
     def design(cls, params) -> dict:
@@ -152,6 +153,9 @@ class SteeringAllocator:
         self.rate_max = np.radians(params.beta_rate_max_deg_s)
         self.period = ctx.control_period
         gimbals = len(self.geometry.gimbal_axes)
+        if self.four_units_only and gimbals != 4:
+            raise InputError("pipeline.allocator.type", f"{self.stage_name()} steers 4-unit clusters only "
+                             f"({self.four_units_only}); this array has {gimbals} units")
         self.limits = configured_limits(params, ctx, gimbals)
         # the angles the run starts from and J there (minimax_avoid's preferred configuration)
         start = ctx.actuators.get("gimbal_angle")
@@ -167,6 +171,11 @@ class SteeringAllocator:
         self.isolation = FaultIsolation(params, gimbals, getattr(
             self.geometry, "nominal_rotor_speed", None)) if params.fault_detection else None
         self.reset_statistics()
+
+    @classmethod
+    def stage_name(cls) -> str:
+        """The allocator's name in a scenario."""
+        return cls.law_name
 
     def applied(self) -> dict:
         """The rate limit the law is given [deg/s] (testbed.campaign.applied_values)."""
@@ -291,7 +300,8 @@ class SteeringAllocator:
 
 
 def _register(name: str) -> None:
-    cls = type(f"{name}_steering", (SteeringAllocator,), {"law_name": name, "__doc__": STEERING_LAWS[name].__doc__})
+    cls = type(f"{name}_steering", (SteeringAllocator,), {"law_name": name, "__doc__": STEERING_LAWS[name].__doc__,
+                                                          "four_units_only": FOUR_UNIT_LAWS.get(name, "")})
     stage("allocator", name, SteeringParams)(cls)
 
 

@@ -5,7 +5,7 @@
 - plant.py            joints and servos by name; the plant the runner steps
 - gimbal_servo.py     the gimbal-rate servos (intvelocity, feedforward) and where the momentum drift comes from
 - reduced_model.py    the reduced (gyrostat) model, reference `reduced_cmg`
-- momentum_envelope.py, envelope_command.py   the envelope and singular surfaces, `testbed envelope`
+- momentum_envelope.py the envelope and singular surfaces (`testbed envelope`: testbed/systems/cmg_cluster)
 - momentum_gauge.py   what momentum the cluster can hold and what torque it can give (its convex hull)
 - rotor_imbalance.py  rotor static and dynamic imbalance as their force and torque on the bus
 - faults.py           timed unit faults (`model.faults`) injected into the plant
@@ -14,7 +14,7 @@
 - metrics.py          servo tracking of the held gimbal-rate command
 """
 
-from testbed.systems.cmg_rhombus import envelope_command, metrics, reduced_model, stages, vscmg_allocator  # noqa: F401  (register)
+from testbed.systems.cmg_rhombus import metrics, reduced_model, stages, vscmg_allocator  # noqa: F401  (register)
 from testbed.systems.cmg_rhombus.cluster import ClusterGeometry
 from testbed.systems.cmg_rhombus.faults import check_fault_times
 from testbed.systems.cmg_rhombus.model import MAX_DT_OVER_ROTOR_TAU, CmgRhombusParams, build

@@ -1,4 +1,4 @@
-"""Geometry of the 4-CMG rhombus cluster (SEEDS §004), read back from a compiled model.
+"""Geometry of a single-gimbal CMG cluster, read back from a compiled model; the rhombus of SEEDS §004.
 
 CMG i has spin axis cos(b_i) e_i + sin(b_i) s_i z with e1 = (cos a, sin a, 0),
 e2 = (-cos a, sin a, 0), e3 = -e1, e4 = -e2, s = (+1, +1, -1, -1), gimbal axis
@@ -8,15 +8,33 @@ and g_i x e_i = s_i z, so a positive MuJoCo hinge angle b_i about g_i is exactly
 rotor momenta, H(beta) and dH/dbeta from the compiled model (never typed in a second time).
 """
 
+import mujoco
 import numpy as np
 
 from testbed.systems.free_bus import BUS_BODY
 from testbed.math.quaternion import quat_to_matrix
 from testbed.systems.cmg_rhombus.momentum_gauge import envelope_gauge
 
-N_CMG = 4
-GIMBALS = tuple(f"gimbal{i}" for i in range(1, N_CMG + 1))  # body and joint names
-ROTORS = tuple(f"rotor{i}" for i in range(1, N_CMG + 1))  # body and joint names
+N_CMG = 4  # units of the seed's rhombus
+# the systems whose plant is this folder's CmgPlant: the seed's rhombus and clusters of any array
+CLUSTER_SYSTEMS = ("cmg_rhombus", "cmg_cluster")
+
+
+def unit_names(units: int) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(gimbal names, rotor names) of a cluster of `units`: body and joint names gimbal1, rotor1, ..."""
+    return (tuple(f"gimbal{i}" for i in range(1, units + 1)),
+            tuple(f"rotor{i}" for i in range(1, units + 1)))
+
+
+def unit_count(model) -> int:
+    """How many units a compiled model holds: its gimbal joints gimbal1, gimbal2, ... in a row."""
+    count = 0
+    while mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"gimbal{count + 1}") >= 0:
+        count += 1
+    return count
+
+
+GIMBALS, ROTORS = unit_names(N_CMG)
 ROTOR_SPEED_NUMERIC = "rotor_nominal_speed"
 SIGNS = np.array([1.0, 1.0, -1.0, -1.0])  # s_i of SEEDS §004
 
@@ -34,9 +52,11 @@ def rhombus_axes(alpha):
 class ClusterGeometry:
     """CMG cluster geometry read from a compiled model, in the bus frame.
 
-    gimbal_axes g_i, spin_axes_zero e_i (spin at beta = 0), turn_axes = g_i x e_i (= s_i z):
-    (4, 3) unit vectors. spin_inertia Js_i [kg m^2], nominal_rotor_speed Omega [rad/s],
-    rotor_momentum h_i = Js_i Omega (4,), h: the common value of h_i [N m s].
+    gimbal_axes g_i, spin_axes_zero e_i (spin at beta = 0), turn_axes = g_i x e_i:
+    (n, 3) unit vectors for n units. spin_inertia Js_i [kg m^2], nominal_rotor_speed Omega [rad/s],
+    rotor_momentum h_i = Js_i Omega (n,), h: the reference momentum [N m s], the common value of
+    h_i when they are equal, else the largest; `relative_momentum` h_i / h (None when equal), by
+    which the columns of `unit_jacobian` are scaled, so that h J(b) b' = H' holds for any h_i.
     gimbal_axis_inertia J_g,i [kg m^2] (4,): gimbal frame and rotor about the gimbal axis (0,
     the spin momentum alone, until `with_gimbal_inertia` gives it). rotor_speed_range (min, max)
     [rad/s]: the speeds the rotor motors can hold, None for fixed-speed rotors.
@@ -52,8 +72,11 @@ class ClusterGeometry:
         self.nominal_rotor_speed = float(nominal_rotor_speed)
         self.rotor_momentum = self.spin_inertia * self.nominal_rotor_speed
         if np.ptp(self.rotor_momentum) > 1e-12 * self.rotor_momentum.max():
-            raise ValueError(f"rotor momenta differ: {self.rotor_momentum}")
-        self.h = float(self.rotor_momentum.mean())
+            self.h = float(self.rotor_momentum.max())
+            self.relative_momentum = self.rotor_momentum / self.h
+        else:  # equal momenta: the columns are the unit ones, untouched
+            self.h = float(self.rotor_momentum.mean())
+            self.relative_momentum = None
         self.gimbal_axis_inertia = np.zeros(len(self.gimbal_axes))
         self._turned_key, self._turned = None, None  # turned_axes' last angles and axes
 
@@ -76,7 +99,7 @@ class ClusterGeometry:
         about the spin axis), Omega from the custom numeric "rotor_nominal_speed"."""
         bus_id = model.body(BUS_BODY).id
         gimbal_axes, spin_axes, spin_inertia = [], [], []
-        for gimbal_name, rotor_name in zip(GIMBALS, ROTORS):
+        for gimbal_name, rotor_name in zip(*unit_names(unit_count(model))):
             gimbal, rotor = model.body(gimbal_name), model.body(rotor_name)
             if gimbal.parentid[0] != bus_id or rotor.parentid[0] != gimbal.id:
                 raise ValueError(f"{rotor_name} must sit in {gimbal_name}, which sits in bus")
@@ -141,23 +164,28 @@ class ClusterGeometry:
         return (self.gimbal_axis_inertia * np.asarray(gimbal_rates, dtype=float)) @ self.gimbal_axes
 
     def unit_jacobian(self, beta):
-        """dH/dbeta per unit rotor momentum, (..., 3, 4): column i = -sin b_i e_i + cos b_i s_i z
-        (SEEDS §004 eq. (18) divided by h). Steering solves h J(b) b' = H' (eq. (17)). Leading
-        dimensions of beta (a recorded history) broadcast."""
-        return np.swapaxes(self.turned_axes(beta)[1].copy(), -1, -2)
+        """dH/dbeta divided by the reference momentum h, (..., 3, n): column i = (h_i / h)
+        (-sin b_i e_i + cos b_i s_i z) (SEEDS §004 eq. (18) divided by h; h_i / h = 1 for equal
+        rotors). Steering solves h J(b) b' = H' (eq. (17)). Leading dimensions of beta (a
+        recorded history) broadcast."""
+        columns = np.swapaxes(self.turned_axes(beta)[1].copy(), -1, -2)
+        return columns if self.relative_momentum is None else columns * self.relative_momentum
 
     def unit_jacobian_derivative(self, beta):
-        """dJ_i/dbeta_i of the unit Jacobian, (3, 4): column i = -(cos b_i e_i + sin b_i s_i z),
-        the negative unit spin axis (eq. (18) differentiated; column i of J depends on b_i only)."""
-        return -self.spin_axes(beta).T
+        """dJ_i/dbeta_i of the unit Jacobian, (3, n): column i = -(h_i / h) (cos b_i e_i + sin b_i
+        s_i z), the negative spin axis (eq. (18) differentiated; column i of J depends on b_i only)."""
+        derivative = -self.spin_axes(beta).T
+        return derivative if self.relative_momentum is None else derivative * self.relative_momentum
 
     def jacobian(self, beta):
-        """dH/dbeta at the nominal rotor momenta [N m s / rad], (3, 4): h_i times unit column."""
-        return self.unit_jacobian(beta) * self.rotor_momentum
+        """dH/dbeta at the nominal rotor momenta [N m s / rad], (3, n): h_i times unit column."""
+        if self.relative_momentum is None:
+            return self.unit_jacobian(beta) * self.rotor_momentum
+        return self.unit_jacobian(beta) * self.h
 
     def singularity_measure(self, beta):
-        """sqrt(det(J J^T)) of the unit Jacobian: 0 at a singular set, up to (4/3)^(3/2). A float
-        for one set of angles (4,), an array for a history (..., 4)."""
+        """sqrt(det(J J^T)) of the unit Jacobian: 0 at a singular set, up to (n/3)^(3/2) for n equal
+        rotors. A float for one set of angles (n,), an array for a history (..., n)."""
         j = self.unit_jacobian(beta)
         measure = np.sqrt(np.maximum(np.linalg.det(j @ np.swapaxes(j, -1, -2)), 0.0))
         return float(measure) if measure.ndim == 0 else measure

@@ -9,11 +9,12 @@ import numpy as np
 
 from testbed.metrics import metric
 from testbed.pipeline import output_of
+from testbed.systems.cmg_rhombus.cluster import CLUSTER_SYSTEMS
 
 
 def _servo_commanded(scenario) -> bool:
     """The allocator commands gimbal rates (not only ideal torques, not nothing)."""
-    return scenario.system == "cmg_rhombus" and output_of("allocator", scenario.stages["allocator"][0]) == "gimbal_rates"
+    return scenario.system in CLUSTER_SYSTEMS and output_of("allocator", scenario.stages["allocator"][0]) == "gimbal_rates"
 
 
 @dataclass(frozen=True)
@@ -61,7 +62,7 @@ def gimbal_rate_error_rel(run) -> float:
 
 def _variable_speed(scenario) -> bool:
     """The rotors may change speed (model.rotor_speed_range_rpm given)."""
-    return scenario.system == "cmg_rhombus" and scenario.model.rotor_speed_range_rpm is not None
+    return scenario.system in CLUSTER_SYSTEMS and scenario.model.rotor_speed_range_rpm is not None
 
 
 @dataclass(frozen=True)
@@ -82,7 +83,7 @@ class _SpeedExtremes:
 
 
 def _in_orbit(scenario) -> bool:
-    return scenario.system == "cmg_rhombus" and scenario.orbit is not None
+    return scenario.system in CLUSTER_SYSTEMS and scenario.orbit is not None
 
 
 @dataclass(frozen=True)
@@ -124,7 +125,7 @@ def max_rotor_speed_rpm(run) -> float:
 
 def _faulted_and_watched(scenario) -> bool:
     """A fault is injected (model.faults) and the allocator looks for it (fault_detection)."""
-    return (scenario.system == "cmg_rhombus" and bool(scenario.model.faults)
+    return (scenario.system in CLUSTER_SYSTEMS and bool(scenario.model.faults)
             and bool(getattr(scenario.stages["allocator"][1], "fault_detection", False)))
 
 

@@ -18,12 +18,19 @@ from testbed.systems.free_bus import set_bus_mass
 from testbed.math.validation import check_principal_inertia
 from testbed.scenario.shipped_files import compile_model, load_spec
 from testbed.scenario.schema import join, param
-from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTOR_SPEED_NUMERIC, ROTORS, rhombus_axes
+from testbed.systems.cmg_rhombus.cluster import N_CMG, ROTOR_SPEED_NUMERIC, rhombus_axes, unit_names
 from testbed.systems.cmg_rhombus.faults import FaultEvent, check_faults
 
-GIMBAL_SERVOS = tuple(f"gimbal_rate{i}" for i in range(1, N_CMG + 1))
-ROTOR_SERVOS = tuple(f"rotor_speed{i}" for i in range(1, N_CMG + 1))
-GIMBAL_MOTORS = tuple(f"gimbal_torque{i}" for i in range(1, N_CMG + 1))  # kept for servo_model feedforward
+
+
+def unit_actuator_names(units: int) -> tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...]]:
+    """(gimbal-rate servos, rotor-speed loops, gimbal motors) of a cluster of `units`, by name;
+    the gimbal motors are kept for servo_model feedforward only."""
+    numbers = range(1, units + 1)
+    return (tuple(f"gimbal_rate{i}" for i in numbers), tuple(f"rotor_speed{i}" for i in numbers),
+            tuple(f"gimbal_torque{i}" for i in numbers))
+
+
 INITIAL_KEY = "initial"
 
 # RK4 stays accurate and stable for the servo modes when (rate x dt) is well below its
@@ -33,7 +40,60 @@ MAX_DT_OVER_ROTOR_TAU = 0.5
 
 
 @dataclass(kw_only=True)
-class CmgRhombusParams:
+class CmgUnitsParams:
+    """What every single-gimbal CMG spacecraft's `model:` block holds beside its bus inertia and
+    its array: the rotors, gimbals, servos, limits and faults of its units (CmgRhombusParams
+    says what each field means). A subclass declares its units' initial `gimbal_angles_deg` and says
+    how many units there are (`unit_count`)."""
+
+    mass_kg: float = param(1000.0, gt=0)
+    rotor_momentum_nms: float = param(50.0, gt=0, doc="h of each rotor at nominal speed")
+    rotor_speed_rpm: float = param(6000.0, ge=1.0, le=1e6)
+    rotor_transverse_ratio: float = param(0.6, ge=0.5, doc="Jt / Js of the rotor (>= 0.5 for a rotor)")
+    rotor_mass_kg: float = param(10.0, gt=0)
+    gimbal_mass_kg: float = param(5.0, gt=0)
+    gimbal_inertia_kg_m2: list[float] = param([0.03, 0.02, 0.02], length=3, gt=0)
+    servo_model: Literal["intvelocity", "feedforward"] = param("intvelocity")
+    servo_natural_frequency_rad_s: float = param(316.0, gt=0)
+    servo_damping_ratio: float = param(1.0, gt=0)
+    gimbal_torque_limit_nm: float | None = param(None, gt=0)
+    gimbal_rate_limit_deg_s: float | None = param(None, gt=0)
+    rotor_speed_time_constant_s: float = param(0.02, gt=0)
+    cancel_initial_momentum: bool = param(False, doc="move the initial gimbal angles so that the total momentum is 0")
+    rotor_speed_range_rpm: list[float] | None = param(None, length=2, gt=0, doc=(
+        "[min, max] speed the rotor motors can hold (the speed loops clip their command to it); "
+        "None: fixed-speed rotors"))
+    gimbal_friction_nm: float = param(0.0, ge=0, doc="Coulomb friction torque of each gimbal bearing (MuJoCo frictionloss)")
+    gimbal_damping_nms_rad: float = param(0.0, ge=0, doc="viscous friction of each gimbal bearing (MuJoCo joint damping)")
+    faults: list[FaultEvent] = param([], doc="timed unit faults: [{at_s, unit, kind, ...}] (docs/theory/faults.md)")
+
+    def unit_count(self) -> int:
+        """How many units the array has."""
+        raise NotImplementedError
+
+    def validate(self, path: str) -> None:
+        check_principal_inertia(self.gimbal_inertia_kg_m2, join(path, "gimbal_inertia_kg_m2"))
+        check_faults(self.faults, self.unit_count(), join(path, "faults"))
+        if self.rotor_speed_range_rpm is not None:
+            low, high = self.rotor_speed_range_rpm
+            if not low <= self.rotor_speed_rpm <= high:
+                raise InputError(join(path, "rotor_speed_range_rpm"), f"[{low:g}, {high:g}] rpm must hold the "
+                                 f"nominal rotor_speed_rpm = {self.rotor_speed_rpm:g}")
+        for i, angle in enumerate(self.gimbal_angles_deg or []):
+            # a gimbal angle is periodic; far beyond a turn the float keeps no fraction of a
+            # degree (at 1e308 MuJoCo stops the run at its first step as diverged)
+            if not abs(angle) <= 360.0:
+                raise InputError(join(path, f"gimbal_angles_deg[{i}]"), f"{angle:g} deg is more than a turn: give "
+                                 "the same orientation within [-360, 360] deg")
+
+    @property
+    def rotor_speed(self) -> float:
+        """Nominal rotor speed Omega [rad/s]."""
+        return self.rotor_speed_rpm * np.pi / 30.0
+
+
+@dataclass(kw_only=True)
+class CmgRhombusParams(CmgUnitsParams):
     """The bus plus four single-gimbal CMGs in the rhombus layout (SEEDS §004).
 
     inertia_kg_m2: principal inertia of the bus alone about its CoM; the system inertia also
@@ -71,111 +131,103 @@ class CmgRhombusParams:
 
     system: str = "cmg_rhombus"
     inertia_kg_m2: list[float] = param([800.0, 1000.0, 1200.0], length=3, doc="principal inertia of the bus")
-    mass_kg: float = param(1000.0, gt=0)
     alpha_deg: float = param(float(np.degrees(np.arctan(np.sqrt(2.0)))), gt=0, lt=90)
-    rotor_momentum_nms: float = param(50.0, gt=0, doc="h of each rotor at nominal speed")
-    rotor_speed_rpm: float = param(6000.0, ge=1.0, le=1e6)
-    rotor_transverse_ratio: float = param(0.6, ge=0.5, doc="Jt / Js of the rotor (>= 0.5 for a rotor)")
-    rotor_mass_kg: float = param(10.0, gt=0)
-    gimbal_mass_kg: float = param(5.0, gt=0)
-    gimbal_inertia_kg_m2: list[float] = param([0.03, 0.02, 0.02], length=3, gt=0)
     cmg_distance_m: float = param(0.5, gt=0)
-    servo_model: Literal["intvelocity", "feedforward"] = param("intvelocity")
-    servo_natural_frequency_rad_s: float = param(316.0, gt=0)
-    servo_damping_ratio: float = param(1.0, gt=0)
-    gimbal_torque_limit_nm: float | None = param(None, gt=0)
-    gimbal_rate_limit_deg_s: float | None = param(None, gt=0)
-    rotor_speed_time_constant_s: float = param(0.02, gt=0)
     gimbal_angles_deg: list[float] = param([45.0, -45.0, -45.0, 45.0], length=4)
-    cancel_initial_momentum: bool = param(False, doc="move the initial gimbal angles so that the total momentum is 0")
-    rotor_speed_range_rpm: list[float] | None = param(None, length=2, gt=0, doc=(
-        "[min, max] speed the rotor motors can hold (the speed loops clip their command to it); "
-        "None: fixed-speed rotors"))
-    gimbal_friction_nm: float = param(0.0, ge=0, doc="Coulomb friction torque of each gimbal bearing (MuJoCo frictionloss)")
-    gimbal_damping_nms_rad: float = param(0.0, ge=0, doc="viscous friction of each gimbal bearing (MuJoCo joint damping)")
     rotor_static_imbalance_kg_m: list[float] = param([0.0] * 4, length=4, ge=0, doc="Us of each rotor (simple jitter)")
     rotor_dynamic_imbalance_kg_m2: list[float] = param([0.0] * 4, length=4, ge=0, doc="Ud of each rotor (simple jitter)")
-    faults: list[FaultEvent] = param([], doc="timed unit faults: [{at_s, unit, kind, ...}] (docs/theory/faults.md)")
+
+    def unit_count(self) -> int:
+        return N_CMG
 
     def validate(self, path: str) -> None:
         check_principal_inertia(self.inertia_kg_m2, join(path, "inertia_kg_m2"))
-        check_principal_inertia(self.gimbal_inertia_kg_m2, join(path, "gimbal_inertia_kg_m2"))
-        check_faults(self.faults, N_CMG, join(path, "faults"))
-        if self.rotor_speed_range_rpm is not None:
-            low, high = self.rotor_speed_range_rpm
-            if not low <= self.rotor_speed_rpm <= high:
-                raise InputError(join(path, "rotor_speed_range_rpm"), f"[{low:g}, {high:g}] rpm must hold the "
-                                 f"nominal rotor_speed_rpm = {self.rotor_speed_rpm:g}")
-        for i, angle in enumerate(self.gimbal_angles_deg):
-            # a gimbal angle is periodic; far beyond a turn the float keeps no fraction of a
-            # degree (at 1e308 MuJoCo stops the run at its first step as diverged)
-            if not abs(angle) <= 360.0:
-                raise InputError(join(path, f"gimbal_angles_deg[{i}]"), f"{angle:g} deg is more than a turn: give "
-                                 "the same orientation within [-360, 360] deg")
-
-    @property
-    def rotor_speed(self) -> float:
-        """Nominal rotor speed Omega [rad/s]."""
-        return self.rotor_speed_rpm * np.pi / 30.0
+        super().validate(path)
 
 
 def build(params: CmgRhombusParams, dt: float, integrator: str = "RK4") -> mujoco.MjModel:
     """Compile models/cmg_rhombus.xml with every field of `params` applied through MjSpec."""
     spec = load_spec("cmg_rhombus.xml", dt, integrator)
     set_bus_mass(spec, params.inertia_kg_m2, params.mass_kg)
+    e, g, sz = rhombus_axes(np.radians(params.alpha_deg))
+    units = [UnitBuild(params.cmg_distance_m * e[i], np.column_stack([g[i], e[i], sz[i]]), params.rotor_momentum_nms,
+                       params.rotor_mass_kg, params.gimbal_mass_kg, params.gimbal_inertia_kg_m2) for i in range(N_CMG)]
+    return compile_units(spec, params, dt, units, params.gimbal_angles_deg)
+
+
+@dataclass
+class UnitBuild:
+    """One unit as compile_units places and sizes it: its position [m] (bus frame), its gimbal
+    frame (3, 3) (columns: gimbal axis g_i, spin axis at beta = 0 e_i, g_i x e_i), its rotor
+    momentum at the nominal speed [N m s], rotor and gimbal-frame masses [kg] and the gimbal frame's
+    principal inertia about (g_i, e_i, g_i x e_i) [kg m^2]."""
+
+    position: np.ndarray
+    frame: np.ndarray
+    rotor_momentum: float
+    rotor_mass: float
+    gimbal_mass: float
+    gimbal_inertia: list[float]
+
+
+def compile_units(spec, params: CmgUnitsParams, dt: float, units: list[UnitBuild],
+                  gimbal_angles_deg) -> mujoco.MjModel:
+    """Apply `units` and the common fields of `params` (rotor speed and shape, servos, limits,
+    friction) to a spec that holds the units' bodies, joints and actuators by name (unit_names,
+    unit_actuator_names), and compile it; gimbal_angles_deg: the initial angles."""
     omega_rotor = params.rotor_speed
-    spin_inertia = params.rotor_momentum_nms / omega_rotor
     ratio = params.rotor_transverse_ratio
-    rotor_inertia = np.array([ratio, ratio, 1.0]) * spin_inertia  # rotor spin axis = local z
-    gimbal_inertia = np.asarray(params.gimbal_inertia_kg_m2, float)
-    gimbal_axis_inertia = gimbal_inertia[0] + rotor_inertia[0]  # rotor transverse about g
-    kp, kv = servo_gains(params, dt, gimbal_axis_inertia)
     tau = params.rotor_speed_time_constant_s
     if dt / tau > MAX_DT_OVER_ROTOR_TAU:
         raise InputError("model.rotor_speed_time_constant_s",
                          f"{tau} s is too short for timestep {dt} s under RK4")
-    rotor_kv = spin_inertia / tau
-
-    e, g, sz = rhombus_axes(np.radians(params.alpha_deg))
-    for i in range(N_CMG):
-        gimbal = spec.body(GIMBALS[i])
-        gimbal.pos = params.cmg_distance_m * e[i]
-        # gimbal frame: x = g_i (hinge axis in the XML), y = e_i (rotor spin), z = s_i z
+    gimbals, rotors = unit_names(len(units))
+    gimbal_servos, rotor_servos, gimbal_motors = unit_actuator_names(len(units))
+    for i, unit in enumerate(units):
+        spin_inertia = unit.rotor_momentum / omega_rotor
+        rotor_inertia = np.array([ratio, ratio, 1.0]) * spin_inertia  # rotor spin axis = local z
+        gimbal_inertia = np.asarray(unit.gimbal_inertia, float)
+        gimbal_axis_inertia = gimbal_inertia[0] + rotor_inertia[0]  # rotor transverse about g
+        kp, kv = servo_gains(params, dt, gimbal_axis_inertia)
+        rotor_kv = spin_inertia / tau
+        gimbal = spec.body(gimbals[i])
+        gimbal.pos = unit.position
+        # gimbal frame: x = g_i (hinge axis in the XML), y = e_i (rotor spin), z = g_i x e_i
         quat = np.zeros(4)
-        mujoco.mju_mat2Quat(quat, np.column_stack([g[i], e[i], sz[i]]).ravel())
+        mujoco.mju_mat2Quat(quat, np.asarray(unit.frame, float).ravel())
         gimbal.quat = quat
-        gimbal.mass = params.gimbal_mass_kg
+        gimbal.mass = unit.gimbal_mass
         gimbal.inertia = gimbal_inertia
         gimbal.ipos = np.zeros(3)
-        rotor = spec.body(ROTORS[i])
-        rotor.mass = params.rotor_mass_kg
+        rotor = spec.body(rotors[i])
+        rotor.mass = unit.rotor_mass
         rotor.inertia = rotor_inertia
         rotor.ipos = np.zeros(3)
 
-        servo = spec.actuator(GIMBAL_SERVOS[i])
+        servo = spec.actuator(gimbal_servos[i])
         servo.gainprm = _with_first(servo.gainprm, [kp])
         servo.biasprm = _with_first(servo.biasprm, [0.0, -kp, -kv])
-        speed = spec.actuator(ROTOR_SERVOS[i])
+        speed = spec.actuator(rotor_servos[i])
         speed.gainprm = _with_first(speed.gainprm, [rotor_kv])
         speed.biasprm = _with_first(speed.biasprm, [0.0, 0.0, -rotor_kv])
         if params.rotor_speed_range_rpm is not None:
             speed.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
             speed.ctrlrange = np.asarray(params.rotor_speed_range_rpm) * np.pi / 30.0
-        _apply_limits(spec, params, i)
+        _apply_limits(spec, params, gimbals[i], gimbal_servos[i])
         if params.gimbal_friction_nm or params.gimbal_damping_nms_rad:
-            joint = spec.joint(GIMBALS[i])
+            joint = spec.joint(gimbals[i])
             joint.frictionloss = params.gimbal_friction_nm
             joint.damping = [params.gimbal_damping_nms_rad, 0.0, 0.0]  # MuJoCo 4: the linear coefficient first
         if params.servo_model != "feedforward":
-            spec.delete(spec.actuator(GIMBAL_MOTORS[i]))  # the intvelocity servo has no motor
+            spec.delete(spec.actuator(gimbal_motors[i]))  # the intvelocity servo has no motor
 
     spec.numeric(ROTOR_SPEED_NUMERIC).data = [omega_rotor]
-    motors = N_CMG if params.servo_model == "feedforward" else 0
-    _write_initial_key(spec, np.radians(params.gimbal_angles_deg), omega_rotor, motors)
+    motors = len(units) if params.servo_model == "feedforward" else 0
+    _write_initial_key(spec, np.radians(gimbal_angles_deg), omega_rotor, motors)
     return compile_model(spec)
 
 
-def servo_gains(params: CmgRhombusParams, dt: float, gimbal_axis_inertia: float):
+def servo_gains(params: CmgUnitsParams, dt: float, gimbal_axis_inertia: float):
     """(kp, kv) of the integrated-velocity gimbal servo: the closed loop
     J b'' + kv b' + kp b = kp b_cmd has natural frequency w_n and damping ratio zeta.
 
@@ -191,16 +243,16 @@ def servo_gains(params: CmgRhombusParams, dt: float, gimbal_axis_inertia: float)
     return gimbal_axis_inertia * w_n**2, 2.0 * zeta * w_n * gimbal_axis_inertia
 
 
-def _apply_limits(spec, params: CmgRhombusParams, i: int) -> None:
-    """The physical limits of gimbal i: the motor's torque (MuJoCo clamps the sum of the
+def _apply_limits(spec, params: CmgUnitsParams, gimbal_name: str, servo_name: str) -> None:
+    """The physical limits of a gimbal: the motor's torque (MuJoCo clamps the sum of the
     actuator torques on the joint) and the rate command (clipped to the servo's ctrlrange)."""
     limited = mujoco.mjtLimited.mjLIMITED_TRUE
     if params.gimbal_torque_limit_nm is not None:
-        joint = spec.joint(GIMBALS[i])
+        joint = spec.joint(gimbal_name)
         joint.actfrclimited = limited
         joint.actfrcrange = [-params.gimbal_torque_limit_nm, params.gimbal_torque_limit_nm]
     if params.gimbal_rate_limit_deg_s is not None:
-        servo = spec.actuator(GIMBAL_SERVOS[i])
+        servo = spec.actuator(servo_name)
         servo.ctrllimited = limited
         servo.ctrlrange = np.radians([-params.gimbal_rate_limit_deg_s, params.gimbal_rate_limit_deg_s])
 
@@ -225,4 +277,4 @@ def _write_initial_key(spec, beta0, omega_rotor, motors=0):
     key.qpos = qpos
     key.qvel = qvel
     key.act = list(beta0)
-    key.ctrl = [0.0] * 3 + [0.0] * N_CMG + [0.0] * motors + [omega_rotor] * N_CMG
+    key.ctrl = [0.0] * 3 + [0.0] * len(beta0) + [0.0] * motors + [omega_rotor] * len(beta0)

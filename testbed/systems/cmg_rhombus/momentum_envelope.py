@@ -55,8 +55,17 @@ def rhombus_gimbal_axes(alpha) -> np.ndarray:
     return rhombus_geometry(alpha)[2]
 
 
+def rotor_momenta(h, units: int) -> np.ndarray:
+    """h_i [N m s] of `units` CMGs, (units,), from one h for all or one per unit; each > 0."""
+    values = np.broadcast_to(np.asarray(h, dtype=float), (units,)) if np.ndim(h) == 0 else np.asarray(h, float)
+    if values.shape != (units,):
+        raise InputError("cmg.h_Nms", f"must be one rotor momentum or {units}, got {np.shape(h)}")
+    return np.array([positive_number("cmg.h_Nms", value) for value in values])
+
+
 def singular_momenta(u, signs, axes, h=1.0) -> np.ndarray:
-    """Per-CMG momenta h_i = ε_i h (g_i × u) × g_i / |g_i × u| for directions u (m, 3): (m, 4, 3).
+    """Per-CMG momenta h_i = ε_i h_i (g_i × u) × g_i / |g_i × u| for directions u (m, 3):
+    (m, n, 3); h: one rotor momentum for all units or one per unit [N m s].
 
     Every such state is singular, with u normal to all torque axes g_i × h_i.
     Raises InputError if some u lies along a gimbal axis (h_i undetermined there).
@@ -66,8 +75,8 @@ def singular_momenta(u, signs, axes, h=1.0) -> np.ndarray:
     eps = np.asarray(signs, dtype=float).reshape(1, -1, 1)
     if eps.shape[1] != g.shape[0] or not np.all(np.abs(eps) == 1):
         raise InputError("envelope.signs", f"must be {g.shape[0]} values of +1 or -1, got {signs!r}")
-    h = positive_number("cmg.h_Nms", h)
-    gxu = np.cross(g[None, :, :], u[:, None, :])  # (m, 4, 3)
+    h = rotor_momenta(h, g.shape[0])[None, :, None]
+    gxu = np.cross(g[None, :, :], u[:, None, :])  # (m, n, 3)
     norm = np.linalg.norm(gxu, axis=-1, keepdims=True)
     if np.any(norm < _AXIS_EPS):
         raise InputError("envelope.u", "a direction lies along a gimbal axis; its CMG momentum is undetermined")
@@ -107,7 +116,7 @@ def remaining_cluster_surfaces(axes, failed, n, h=1.0) -> dict[tuple[int, ...], 
     about the failed units' own, wherever those stopped."""
     g = unit_axes(axes)
     keep = [i for i in range(g.shape[0]) if i not in set(failed)]
-    return singular_surface_points(None, n, h, g[keep])
+    return singular_surface_points(None, n, rotor_momenta(h, g.shape[0])[keep], g[keep])
 
 
 def surface_name(pattern) -> str:
@@ -132,16 +141,16 @@ def write_envelope_rrd(path, alpha, h, n, axes=None) -> Path:
     import rerun as rr  # deferred: the geometry above does not need the viewer SDK
 
     g = rhombus_gimbal_axes(alpha) if axes is None else unit_axes(axes)
-    h = positive_number("cmg.h_Nms", h)
+    h = rotor_momenta(h, g.shape[0])
     surfaces = singular_surface_points(alpha, n, h, g)
     with recording_to(path, "testbed-envelope") as rec:
-        radius = 0.01 * h
+        radius = 0.01 * float(h.max())
         for pattern, points in surfaces.items():
             rec.log(f"envelope/{surface_name(pattern)}", rr.Points3D(points, colors=[surface_color(pattern)],
                                                                      radii=radius), static=True)
         rec.log(
             "envelope/gimbal_axes",
-            rr.Arrows3D(vectors=2.0 * h * g, labels=[f"g{i + 1}" for i in range(len(g))]),
+            rr.Arrows3D(vectors=2.0 * h[:, None] * g, labels=[f"g{i + 1}" for i in range(len(g))]),
             static=True,
         )
     return Path(path)

@@ -84,6 +84,27 @@ def envelope_gauge(momenta, axes, rotor_momenta, n=GAUGE_DIRECTIONS) -> tuple[np
     return gauge, direction
 
 
+def support_extremes(axes, rotor_momenta, n=GAUGE_DIRECTIONS, starts=8):
+    """((least S, u), (largest S, u)) of the support S(u) = Σ_i h_i |u × g_i| [N m s] over all unit
+    directions u: the least and most momentum the cluster holds in any direction. Sampled over n
+    Fibonacci directions and ±g_i (S has its cusps there, where minima often lie); the `starts`
+    best samples of each are refined by the compass search (`envelope_gauge`'s), whose step ends
+    at 1e-7 rad, and the best result kept."""
+    g = unit_axes(axes)
+    h = np.broadcast_to(np.asarray(rotor_momenta, dtype=float), (g.shape[0],))
+    candidates = np.concatenate([fibonacci_sphere(n), g, -g])
+    extremes = []
+    for sign in (-1.0, 1.0):  # -S: the least; +S: the largest
+        def signed(u, sign=sign):
+            return sign * _support(u, g, h)
+        values = signed(candidates)
+        best = np.argsort(values)[-starts:]
+        found, directions = _compass_search(signed, values[best], candidates[best], np.sqrt(4.0 * np.pi / n))
+        k = int(np.argmax(found))
+        extremes.append((float(sign * found[k]), directions[k]))
+    return extremes[0], extremes[1]
+
+
 def _best_sampled(P, u, g, h):
     """(ratio, direction) of the sampled directions u (k, 3) with the largest u·P / S(u), per point."""
     ratios = (P @ u.T) / _support(u, g, h)

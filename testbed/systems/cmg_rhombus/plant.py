@@ -16,11 +16,11 @@ from testbed.math.quaternion import quat_conj, quat_rotate
 from testbed.plant import Plant
 from testbed.recording.scene import moving_parts
 from testbed.steering.singularity_type import DEGENERATE, ELLIPTIC, HYPERBOLIC, KIND_NAMES
-from testbed.systems.cmg_rhombus.cluster import GIMBALS, N_CMG, ROTORS, ClusterGeometry
+from testbed.systems.cmg_rhombus.cluster import ClusterGeometry, unit_count, unit_names
 from testbed.systems.cmg_rhombus.faults import FAULT_CODES, FaultInjector
 from testbed.systems.cmg_rhombus.gimbal_servo import FeedForwardServo, IntVelocityServo
 from testbed.systems.cmg_rhombus.jump_refinement import JUMP_FRACTION, JUMP_NO_LIMIT_RAD_S, JumpRefinement
-from testbed.systems.cmg_rhombus.model import GIMBAL_MOTORS, GIMBAL_SERVOS, INITIAL_KEY, ROTOR_SERVOS
+from testbed.systems.cmg_rhombus.model import INITIAL_KEY, unit_actuator_names
 from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel
 from testbed.systems.cmg_rhombus.rotor_imbalance import RotorImbalance
 from testbed.systems.cmg_rhombus.servo_tracking import ServoMiss, servo_miss
@@ -53,20 +53,23 @@ class CmgRhombus(FreeBus):
         # the gimbal inertias too, so the allocator can report the cluster's momentum in full
         self.geometry = ClusterGeometry.from_model(model).with_gimbal_inertia(
             CmgMassModel.from_model(model).cmg_inertia)
-        gimbal_joints = [model.joint(n) for n in GIMBALS]
-        rotor_joints = [model.joint(n) for n in ROTORS]
+        self.units = unit_count(model)
+        self.gimbal_names, self.rotor_names = unit_names(self.units)
+        gimbal_servos, rotor_servos, gimbal_motors = unit_actuator_names(self.units)
+        gimbal_joints = [model.joint(n) for n in self.gimbal_names]
+        rotor_joints = [model.joint(n) for n in self.rotor_names]
         self.gimbal_qpos_adr = np.array([j.qposadr[0] for j in gimbal_joints])
         self.gimbal_qvel_adr = np.array([j.dofadr[0] for j in gimbal_joints])
         self.rotor_qpos_adr = np.array([j.qposadr[0] for j in rotor_joints])
         self.rotor_qvel_adr = np.array([j.dofadr[0] for j in rotor_joints])
-        self.gimbal_actuator_ids = np.array([model.actuator(n).id for n in GIMBAL_SERVOS])
+        self.gimbal_actuator_ids = np.array([model.actuator(n).id for n in gimbal_servos])
         self.gimbal_act_adr = model.actuator_actadr[self.gimbal_actuator_ids]
-        self.rotor_actuator_ids = np.array([model.actuator(n).id for n in ROTOR_SERVOS])
+        self.rotor_actuator_ids = np.array([model.actuator(n).id for n in rotor_servos])
         names = {model.actuator(i).name for i in range(model.nu)}
         # the feedforward servo's motors, when the model has them
-        self.gimbal_motor_ids = np.array([model.actuator(n).id for n in GIMBAL_MOTORS if n in names], dtype=int)
+        self.gimbal_motor_ids = np.array([model.actuator(n).id for n in gimbal_motors if n in names], dtype=int)
         self.initial_key_id = model.key(INITIAL_KEY).id
-        # the same addresses as slices (MuJoCo lays the four CMGs out alike)
+        # the same addresses as slices (MuJoCo lays the CMGs out alike)
         self.gimbal_qpos = evenly_spaced(self.gimbal_qpos_adr)
         self.gimbal_qvel = evenly_spaced(self.gimbal_qvel_adr)
         self.rotor_qvel = evenly_spaced(self.rotor_qvel_adr)
@@ -82,15 +85,15 @@ class CmgRhombus(FreeBus):
         self.internal_dofs = np.array([i for i in range(model.nv) if i not in bus_dofs])
 
     def gimbal_angles(self, data):
-        """Gimbal angles beta [rad], (4,)."""
+        """Gimbal angles beta [rad], (n,)."""
         return data.qpos[self.gimbal_qpos].copy()
 
     def gimbal_rates(self, data):
-        """Gimbal rates beta' [rad/s], (4,)."""
+        """Gimbal rates beta' [rad/s], (n,)."""
         return data.qvel[self.gimbal_qvel].copy()
 
     def rotor_rates(self, data):
-        """Rotor speeds relative to their gimbals Omega [rad/s], (4,)."""
+        """Rotor speeds relative to their gimbals Omega [rad/s], (n,)."""
         return data.qvel[self.rotor_qvel].copy()
 
     def set_gimbal_rate_command(self, data, rates):
@@ -108,11 +111,11 @@ class CmgRhombus(FreeBus):
         mujoco.mj_resetDataKeyframe(self.model, data, self.initial_key_id)
         if beta0 is not None:
             beta0 = np.asarray(beta0, dtype=float)
-            if beta0.shape != (N_CMG,) or not np.all(np.isfinite(beta0)):
-                raise InputError("beta0", f"expected {N_CMG} finite angles, got {beta0}")
+            if beta0.shape != (self.units,) or not np.all(np.isfinite(beta0)):
+                raise InputError("beta0", f"expected {self.units} finite angles, got {beta0}")
             data.qpos[self.gimbal_qpos_adr] = beta0
         if rotor_speed is not None:
-            speeds = np.broadcast_to(np.asarray(rotor_speed, dtype=float), (N_CMG,))
+            speeds = np.broadcast_to(np.asarray(rotor_speed, dtype=float), (self.units,))
             if not np.all(np.isfinite(speeds)):
                 raise InputError("rotor_speed", f"expected finite speeds, got {rotor_speed}")
             data.qvel[self.rotor_qvel_adr] = speeds
@@ -120,7 +123,7 @@ class CmgRhombus(FreeBus):
         # the servo set-point is its activation: it must start at the actual angle
         data.act[self.gimbal_act_adr] = data.qpos[self.gimbal_qpos_adr]
         data.qvel[self.gimbal_qvel_adr] = 0.0
-        self.set_gimbal_rate_command(data, np.zeros(N_CMG))
+        self.set_gimbal_rate_command(data, np.zeros(self.units))
         self.set_free_joint_state(data, omega0_body, quat0)
         mujoco.mj_forward(self.model, data)
 
@@ -143,12 +146,13 @@ class CmgPlant(Plant):
     """Truth adds gimbal angles and rates, the gimbal-rate command the servos held, rotor
     rates and the cluster momentum H (body frame)."""
 
-    actuators = {"body_torque": (3,), "gimbal_rates": (N_CMG,), "rotor_speeds": (N_CMG,)}
-
     def __init__(self, model, params, control_period: float):
-        """`params`: the validated CmgRhombusParams `model` was built from (its servo model and
-        limits, cancel_initial_momentum); `control_period` [s]: how long each command is held."""
+        """`params`: the validated parameters `model` was built from (CmgRhombusParams or
+        CmgClusterParams: its servo model and limits, cancel_initial_momentum); `control_period`
+        [s]: how long each command is held. The commands take one value per unit."""
         super().__init__(CmgRhombus(model))
+        units = self.bus.units
+        self.actuators = {"body_torque": (3,), "gimbal_rates": (units,), "rotor_speeds": (units,)}
         self.geometry = self.bus.geometry
         # what the encoders and tachometers read, as views of MuJoCo's arrays (which never move):
         # a copy of a view costs a quarter of slicing data's array anew, at every trace sample and
@@ -324,24 +328,25 @@ class CmgPlant(Plant):
     def scene(self) -> dict:
         """The base scene plus the cluster: the gimbal frames and rotors from the compiled model's
         geoms, turning with the recorded gimbal angles, each rotor's momentum h_i along its spin
-        axis and the total H on the bus; and the momentum view: the envelope and the 7 internal
-        singular surfaces (momentum_envelope.py, gimbal axes and h from the model) with the run's
-        H(t) coloured by sqrt(det(J J^T)) (its largest value for 4 unit columns is (4/3)^(3/2))."""
+        axis and the total H on the bus; and the momentum view: the envelope and the 2^(n-1) - 1 internal
+        singular surfaces (momentum_envelope.py, gimbal axes and h_i from the model) with the run's
+        H(t) coloured by sqrt(det(J J^T)) (its largest value for n unit columns is (n/3)^(3/2))."""
         model = self.model
         parts = moving_parts(model, self.bus.bus_body_id,
-                             {name: ("truth/gimbal_angle", i) for i, name in enumerate(GIMBALS)})
-        rotors = {f"{gimbal}/{rotor}": i for i, (gimbal, rotor) in enumerate(zip(GIMBALS, ROTORS))}
+                             {name: ("truth/gimbal_angle", i) for i, name in enumerate(self.bus.gimbal_names)})
+        rotors = {f"{gimbal}/{rotor}": i for i, (gimbal, rotor) in enumerate(zip(self.bus.gimbal_names,
+                                                                                self.bus.rotor_names))}
         for part in parts:
             i = rotors.get(part["entity"])
             if i is not None:
-                axis = model.jnt_axis[model.joint(ROTORS[i]).id]  # the spin axis, rotor frame
+                axis = model.jnt_axis[model.joint(self.bus.rotor_names[i]).id]  # the spin axis, rotor frame
                 part["arrows"] = [{"vector": (self.geometry.rotor_momentum[i] * axis).tolist(), "label": f"h{i + 1}"}]
-        g = self.geometry
-        surfaces = singular_surface_points(g.alpha, ENVELOPE_DIRECTIONS, g.h, g.gimbal_axes)
+        g, units = self.geometry, self.bus.units
+        surfaces = singular_surface_points(None, ENVELOPE_DIRECTIONS, g.rotor_momentum, g.gimbal_axes)
         drawn = [{"name": surface_name(p), "points": points, "color": surface_color(p)} for p, points in surfaces.items()]
         for unit in sorted({fault.unit for fault in (self.faults.planned if self.faults else ())}):
             # the cluster a fault leaves (momentum_envelope.remaining_cluster_surfaces)
-            remaining = remaining_cluster_surfaces(g.gimbal_axes, [unit - 1], ENVELOPE_DIRECTIONS, g.h)
+            remaining = remaining_cluster_surfaces(g.gimbal_axes, [unit - 1], ENVELOPE_DIRECTIONS, g.rotor_momentum)
             drawn += [{"name": f"without_unit{unit}/{surface_name(p)}", "points": points, "color": surface_color(p)}
                       for p, points in remaining.items()]
         return super().scene() | {
@@ -352,7 +357,7 @@ class CmgPlant(Plant):
                 "title": "cluster momentum H [N m s]: envelope, singular surfaces, H(t)",
                 "surfaces": drawn,
                 "path": "truth/cmg_momentum", "measure": "truth/singularity_measure",
-                "measure_range": [0.0, (N_CMG / 3.0) ** 1.5],
+                "measure_range": [0.0, (units / 3.0) ** 1.5],
                 # where the path met each kind of singular state (the steering stage's Bedrossian test)
                 "marks": {"signal": "allocator/singularity_type", "entity": "singular",
                           "kinds": {code: {"name": KIND_NAMES[code], "color": color}

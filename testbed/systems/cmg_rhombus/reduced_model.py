@@ -35,7 +35,7 @@ from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from testbed.systems.free_bus import BUS_BODY
-from testbed.systems.cmg_rhombus.cluster import GIMBALS, ROTORS, ClusterGeometry
+from testbed.systems.cmg_rhombus.cluster import CLUSTER_SYSTEMS, ClusterGeometry, unit_count, unit_names
 from testbed.math.quaternion import quat_to_matrix
 from testbed.recording.reference_windows import WindowedReference
 from testbed.references.registry import reference
@@ -72,14 +72,14 @@ class CmgMassModel:
 
     @classmethod
     def from_model(cls, model):
-        """Read mass properties from a compiled cmg_rhombus model (positions at qpos = 0)."""
+        """Read mass properties from a compiled CMG cluster model (positions at qpos = 0)."""
         geometry = ClusterGeometry.from_model(model)
         bus_id = model.body(BUS_BODY).id
         masses, coms, inertias = [model.body_mass[bus_id]], [model.body_ipos[bus_id]], []
         iframe = quat_to_matrix(model.body_iquat[bus_id])
         inertias.append(iframe @ np.diag(model.body_inertia[bus_id]) @ iframe.T)
         cmg_inertia = []
-        for i, (gimbal_name, rotor_name) in enumerate(zip(GIMBALS, ROTORS)):
+        for i, (gimbal_name, rotor_name) in enumerate(zip(*unit_names(unit_count(model)))):
             gimbal, rotor = model.body(gimbal_name), model.body(rotor_name)
             gimbal_rot = quat_to_matrix(gimbal.quat)
             rotor_rot = gimbal_rot @ quat_to_matrix(rotor.quat)
@@ -158,8 +158,8 @@ class GimbalHistory:
 def _check_samples(t_samples, beta, beta_rate, rotor_rate):
     t = np.asarray(t_samples, dtype=float)
     for name, arr in (("beta", beta), ("beta_rate", beta_rate), ("rotor_rate", rotor_rate)):
-        if np.shape(arr) != (t.size, 4):
-            raise ValueError(f"{name} must have shape ({t.size}, 4), got {np.shape(arr)}")
+        if np.ndim(arr) != 2 or np.shape(arr)[0] != t.size or np.shape(arr) != np.shape(beta):
+            raise ValueError(f"{name} must have shape ({t.size}, units) like beta, got {np.shape(arr)}")
     if t.ndim != 1 or t.size < 4 or np.any(np.diff(t) <= 0):
         raise ValueError("t_samples must be at least 4 strictly increasing times")
 
@@ -246,7 +246,7 @@ class ReducedCmgParams:
     rtol: float = param(1e-9, gt=0, lt=1e-3)
 
 
-@reference("reduced_cmg", systems=("cmg_rhombus",), params=ReducedCmgParams)
+@reference("reduced_cmg", systems=CLUSTER_SYSTEMS, params=ReducedCmgParams)
 def _reduced_cmg(plant, params):
     """Reduced CMG model L_b' = -w x L_b, w = I_sys(b)^-1 (L_b - H_int) from the recorded
     gimbal and rotor histories (`reduced_cmg_omega`)."""

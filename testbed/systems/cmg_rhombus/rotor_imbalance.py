@@ -21,7 +21,6 @@ import mujoco
 import numpy as np
 
 from testbed.math.cross import cross3
-from testbed.systems.cmg_rhombus.cluster import ROTORS
 
 
 class RotorImbalance:
@@ -31,8 +30,8 @@ class RotorImbalance:
         self.model, self.data = model, data
         self.static = np.asarray(static, float)
         self.dynamic = np.asarray(dynamic, float)
-        self.units = [i for i in range(len(ROTORS)) if self.static[i] or self.dynamic[i]]
-        self.rotor_bodies = [model.body(name).id for name in ROTORS]
+        self.units = [i for i in range(bus.units) if self.static[i] or self.dynamic[i]]
+        self.rotor_bodies = [model.body(name).id for name in bus.rotor_names]
         self.rotor_dofs = np.asarray(bus.rotor_qvel_adr)
         self.bus_body = bus.bus_body_id
         self.half_step = 0.5 * model.opt.timestep
