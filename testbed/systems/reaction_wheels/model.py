@@ -62,8 +62,6 @@ class CustomWheel:
         return WheelParams(**(vars(defaults) | given))
 
 
-IDENTITY3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
-
 
 @dataclass(kw_only=True)
 class ReactionWheelsParams:

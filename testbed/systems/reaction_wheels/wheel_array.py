@@ -2,7 +2,7 @@
 
 A wheel's axial momentum relative to the bus is h_i = Js_i Omega_i (Omega_i its speed relative to
 the bus); the array's is H = A h with A = [a_1 ... a_n] (3 x n), the spin axes as columns
-(docs/theory/reaction-wheels.md, "Model").
+(docs/theory/reaction-wheels.md, "The model").
 """
 
 from __future__ import annotations
