@@ -310,6 +310,73 @@ def test_the_allocator_refuses_what_it_cannot_serve():
         WheelPseudoInverse(WheelAllocationParams(), Context(None, system="satellite"))
 
 
+def least_largest_by_hand(distribution, wanted, torque_max) -> float:
+    """min over t of max_i |u0_i + t n_i| / u_max,i, u0 = A^+ H' and n spanning the null space of a
+    4-wheel A: a convex piecewise-linear function of t, least where two of its lines cross, so at
+    one of the crossings t = -(u0_i / w_i -+ u0_j / w_j) / (n_i / w_i -+ n_j / w_j)."""
+    u0 = np.linalg.pinv(distribution) @ wanted
+    null = np.linalg.svd(distribution)[2][-1]
+    a, b = u0 / torque_max, null / torque_max
+    crossings = [-(a[i] - sign * a[j]) / (b[i] - sign * b[j]) for i in range(4) for j in range(4) for sign in (1, -1)
+                 if i != j and abs(b[i] - sign * b[j]) > 1e-12]
+    return min(float(np.max(np.abs(a + t * b))) for t in crossings)
+
+
+def minimax_stage(model: dict):
+    from testbed.systems.reaction_wheels.minimax_allocation import WheelMinimax, WheelMinimaxParams
+    array = load(ReactionWheelsParams, model, "model").wheel_array()
+    stage = WheelMinimax(WheelMinimaxParams(), Context(array))
+    stage.type_name = "wheel_minimax"
+    return stage, array
+
+
+def test_minimax_allocation_is_the_closed_form_least_largest_torque():
+    """wheel_minimax's linear program (HiGHS) against the closed form of a 4-wheel array (a one-
+    dimensional null space), 200 demands on a 50 deg pyramid with unequal motor limits: the same
+    least largest share to 1e-9 (HiGHS's tolerances), A u = H' to 1e-12. Along a wheel's own axis
+    of the isotropic pyramid the closed form is 1/2 per unit torque against the pseudo-inverse's 3/4
+    (u = (1, 1, 1, -1)/2 against (1, 3, 1, -1)/4): a third less torque, 1.5 times the capacity."""
+    from testbed.systems.reaction_wheels.minimax_allocation import least_largest_torque
+    model = {"array": "custom", "wheels": [{"axis": a.tolist(), "max_torque_nm": m} for a, m in
+                                           zip(pyramid_axes(50.0), (0.2, 0.25, 0.15, 0.3))]}
+    array = load(ReactionWheelsParams, model, "model").wheel_array()
+    free = (np.full(4, -1e9), np.full(4, 1e9))
+    for wanted in np.random.default_rng(38).normal(scale=0.1, size=(200, 3)):
+        u, share = least_largest_torque(array.distribution, wanted, array.torque_max, np.zeros(4), free)
+        assert share == pytest.approx(least_largest_by_hand(array.distribution, wanted, array.torque_max), rel=1e-9)
+        assert np.allclose(array.distribution @ u, wanted, rtol=0, atol=1e-12)
+    axes = pyramid_axes(ISOTROPIC_SKEW_DEG)
+    u, share = least_largest_torque(axes.T, axes[1], np.ones(4), np.zeros(4), free)
+    assert share == pytest.approx(0.5, rel=1e-9) and np.allclose(u, [0.5, 0.5, 0.5, -0.5], atol=1e-9)
+    assert np.max(np.abs(np.linalg.pinv(axes.T) @ axes[1])) == pytest.approx(0.75, rel=1e-12)
+
+
+def test_minimax_delivers_what_the_pseudo_inverse_must_scale_and_works_round_a_saturated_wheel():
+    """On the isotropic pyramid (0.2 N m motors) a 0.35 N m demand along wheel 2's axis: the pseudo-
+    inverse needs 0.2625 N m of wheel 2 and scales the whole command to 0.2/0.2625; min-max delivers it
+    whole at 0.175 N m a wheel. With wheel 1 at its speed limit (no more torque its way) the
+    pseudo-inverse delivers nothing of a demand that asks wheel 1 for more; min-max delivers it
+    whole with the other three (any three axes of the pyramid span the body), wheel 1 at 0."""
+    model = {"array": "pyramid"}
+    pinv, array = allocator(model)
+    minimax, _ = minimax_stage(model)
+    torque = -0.35 * array.axes[1]  # the demand on the bus; the wheels take +0.35 a_2
+    rest = {"wheel_rate": np.zeros(4)}
+    scaled = pinv.allocate(0.0, {"torque": torque}, {}, rest)
+    assert scaled["scale"][0] == pytest.approx(0.2 / 0.2625, rel=1e-12)
+    whole = minimax.allocate(0.0, {"torque": torque}, {}, rest)
+    assert whole["scale"][0] == 1.0 and np.allclose(whole["torque_delivered"], torque, rtol=0, atol=1e-12)
+    assert np.allclose(np.abs(whole["wheel_torques"]), 0.175, rtol=1e-9)
+    limit = 6000 * RPM
+    demand = np.array([-0.05, -0.02, -0.04])  # asks wheel 1 (x-leaning) to speed up
+    assert (np.linalg.pinv(array.distribution) @ -demand)[0] > 0
+    at_limit = {"wheel_rate": np.array([limit, 0.0, 0.0, 0.0])}
+    assert pinv.allocate(0.0, {"torque": demand}, {}, at_limit)["scale"][0] == 0.0
+    shared = minimax.allocate(0.0, {"torque": demand}, {}, at_limit)
+    assert shared["scale"][0] == 1.0 and abs(shared["wheel_torques"][0]) <= 1e-12  # the other three, whole
+    assert np.allclose(shared["torque_delivered"], demand, rtol=0, atol=1e-12)
+
+
 # --- a slew ----------------------------------------------------------------------------------------
 
 def switch_angle(limit, wn, zeta) -> float:

@@ -21,6 +21,7 @@ the bus is the one allocated.
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,13 +46,13 @@ class WheelAllocationParams:
     compensate_friction: bool = param(True, doc="add the bearing friction of each wheel to its motor's command")
 
 
-def minimum_norm_inverse(array: WheelArray) -> np.ndarray:
+def minimum_norm_inverse(array: WheelArray, allocator: str) -> np.ndarray:
     """A^+ (n, 3): the pseudo-inverse of the array's distribution matrix A = [a_1 ... a_n]; refuses
-    an array whose spin axes do not span the three axes."""
+    an array whose spin axes do not span the three axes (for the stage `allocator`)."""
     singular = np.linalg.svd(array.distribution, compute_uv=False)
     if len(singular) < 3 or singular[-1] < SPAN_RCOND * singular[0]:
         rank = int(np.count_nonzero(singular > SPAN_RCOND * singular[0]))
-        raise InputError(f"{PATH}.type", f"wheel_pinv needs spin axes that span three axes; model's "
+        raise InputError(f"{PATH}.type", f"{allocator} needs spin axes that span three axes; model's "
                          f"{array.count} wheel(s) span {rank}")
     return np.linalg.pinv(array.distribution)
 
@@ -67,10 +68,10 @@ def wheel_torque_bounds(array: WheelArray, rates, friction, period: float) -> tu
     return lo, np.maximum(hi, lo)
 
 
-@stage("allocator", "wheel_pinv", WheelAllocationParams)
-class WheelPseudoInverse:
-    """Minimum-norm wheel torques u = A^+ H', scaled to the torque and speed limits, with optional
-    null-space wheel-momentum management."""
+class WheelAllocator(ABC):
+    """What the wheel allocators share: the array from the plant's description, the wanted array
+    momentum rate H' of (RW-3), the friction fed forward, each wheel's bounds (RW-6), and the
+    command and what it records. A subclass says how H' is spread over the wheels (`distribute`)."""
 
     output = "wheel_torques"
 
@@ -79,25 +80,23 @@ class WheelPseudoInverse:
         # the command keys of the body torque delivered and of the momentum H it was computed with
         return {"delivered_torque": "torque_delivered", "internal_momentum": "momentum", "law_compensation": True}
 
-    def __init__(self, params: WheelAllocationParams, ctx):
+    def __init__(self, params, ctx):
         if not isinstance(ctx.description, WheelArray):
-            raise InputError(f"{PATH}.type", f"wheel_pinv needs a system with reaction wheels "
+            raise InputError(f"{PATH}.type", f"{self.type_name} needs a system with reaction wheels "
                                              f"(model.system reaction_wheels), not {ctx.system}")
         self.array = ctx.description
-        self.inverse = minimum_norm_inverse(self.array)
         self.distribution = self.array.distribution
-        self.null_projector = np.eye(self.array.count) - self.inverse @ self.distribution
-        self.gain = params.null_space_gain_per_s
-        preferred = params.preferred_momentum_nms
-        if preferred is not None and len(preferred) != self.array.count:
-            raise InputError(f"{PATH}.preferred_momentum_nms", f"gives {len(preferred)} momenta; "
-                                                               f"the array has {self.array.count} wheels")
-        self.preferred = np.zeros(self.array.count) if preferred is None else np.asarray(preferred, dtype=float)
+        self.inverse = minimum_norm_inverse(self.array, self.type_name)
         self.compensate_friction = params.compensate_friction
         self.period = ctx.control_period
         law = ctx.stages.get("law")
         self.adds_gyroscopic = not (law is not None and law.design.get("compensates_internal_momentum"))
-        self.statistics = {"min_scale": 1.0, "peak_torque_use": 0.0, "steps": 0}
+        self.statistics = {"min_scale": 1.0, "steps": 0}
+
+    @abstractmethod
+    def distribute(self, wanted, rates, friction, bounds) -> tuple[np.ndarray, float]:
+        """(u, k): wheel torques [N m] that deliver k H' = k `wanted` (A u = k H') within `bounds`
+        (lo, hi), k in [0, 1]; `rates` the wheel speeds [rad/s], `friction` the torque fed forward [N m]."""
 
     def allocate(self, t, demand, estimate, actuators):
         rates = np.asarray(actuators["wheel_rate"], dtype=float)
@@ -105,15 +104,34 @@ class WheelPseudoInverse:
         omega = np.asarray(estimate.get("omega", np.zeros(3)), dtype=float)
         momentum = self.array.momentum(rates)
         gyroscopic = cross3(omega.tolist(), momentum.tolist()) if self.adds_gyroscopic else np.zeros(3)
-        allocated = self.inverse @ -(torque + gyroscopic)
-        if self.gain:
-            allocated -= self.gain * (self.null_projector @ (self.array.wheel_momentum(rates) - self.preferred))
         friction = self.array.friction(rates) if self.compensate_friction else np.zeros(self.array.count)
-        allocated, scale = apply_rate_bounds(allocated, *wheel_torque_bounds(self.array, rates, friction, self.period))
-        motor = allocated + friction
+        bounds = wheel_torque_bounds(self.array, rates, friction, self.period)
+        allocated, scale = self.distribute(-(torque + gyroscopic), rates, friction, bounds)
         s = self.statistics
         s["min_scale"] = min(s["min_scale"], scale)
-        s["peak_torque_use"] = max(s["peak_torque_use"], float(np.max(np.abs(motor) / self.array.torque_max)))
         s["steps"] += 1
-        return {"wheel_torques": motor, "torque_delivered": -(self.distribution @ allocated) - gyroscopic,
+        return {"wheel_torques": allocated + friction, "torque_delivered": -(self.distribution @ allocated) - gyroscopic,
                 "momentum": momentum, "scale": np.array([scale])}
+
+
+@stage("allocator", "wheel_pinv", WheelAllocationParams)
+class WheelPseudoInverse(WheelAllocator):
+    """Minimum-norm wheel torques u = A^+ H', scaled to the torque and speed limits, with optional
+    null-space wheel-momentum management."""
+
+    def __init__(self, params: WheelAllocationParams, ctx):
+        super().__init__(params, ctx)
+        self.null_projector = np.eye(self.array.count) - self.inverse @ self.distribution
+        self.gain = params.null_space_gain_per_s
+        preferred = params.preferred_momentum_nms
+        if preferred is not None and len(preferred) != self.array.count:
+            raise InputError(f"{PATH}.preferred_momentum_nms", f"gives {len(preferred)} momenta; "
+                                                               f"the array has {self.array.count} wheels")
+        self.preferred = np.zeros(self.array.count) if preferred is None else np.asarray(preferred, dtype=float)
+
+    def distribute(self, wanted, rates, friction, bounds):
+        """u = A^+ H' (RW-4) less the null-space term (RW-5), scaled into the bounds keeping its direction."""
+        allocated = self.inverse @ wanted
+        if self.gain:
+            allocated -= self.gain * (self.null_projector @ (self.array.wheel_momentum(rates) - self.preferred))
+        return apply_rate_bounds(allocated, *bounds)

@@ -19,7 +19,7 @@ def _wheels(scenario) -> bool:
 
 
 def _allocated(scenario) -> bool:
-    return _wheels(scenario) and scenario.stages["allocator"][0] == "wheel_pinv"
+    return _wheels(scenario) and scenario.stages["allocator"][0] in ("wheel_pinv", "wheel_minimax")
 
 
 def _absolute(key: str):
@@ -50,6 +50,6 @@ def peak_wheel_torque_fraction(run) -> float:
 
 @metric("min_wheel_scale", applies=_allocated, uses=())
 def min_wheel_scale(run) -> float:
-    """Smallest factor over every control step by which wheel_pinv scaled the command to the wheels'
+    """Smallest factor over every control step by which the allocator scaled the command to the wheels'
     torque and speed limits (1: never limited)."""
     return float(run.statistics["allocator"]["min_scale"])
