@@ -310,18 +310,6 @@ def test_the_allocator_refuses_what_it_cannot_serve():
         WheelPseudoInverse(WheelAllocationParams(), Context(None, system="satellite"))
 
 
-def least_largest_by_hand(distribution, wanted, torque_max) -> float:
-    """min over t of max_i |u0_i + t n_i| / u_max,i, u0 = A^+ H' and n spanning the null space of a
-    4-wheel A: a convex piecewise-linear function of t, least where two of its lines cross, so at
-    one of the crossings t = -(u0_i / w_i -+ u0_j / w_j) / (n_i / w_i -+ n_j / w_j)."""
-    u0 = np.linalg.pinv(distribution) @ wanted
-    null = np.linalg.svd(distribution)[2][-1]
-    a, b = u0 / torque_max, null / torque_max
-    crossings = [-(a[i] - sign * a[j]) / (b[i] - sign * b[j]) for i in range(4) for j in range(4) for sign in (1, -1)
-                 if i != j and abs(b[i] - sign * b[j]) > 1e-12]
-    return min(float(np.max(np.abs(a + t * b))) for t in crossings)
-
-
 def minimax_stage(model: dict):
     from testbed.systems.reaction_wheels.minimax_allocation import WheelMinimax, WheelMinimaxParams
     array = load(ReactionWheelsParams, model, "model").wheel_array()
@@ -330,24 +318,39 @@ def minimax_stage(model: dict):
     return stage, array
 
 
-def test_minimax_allocation_is_the_closed_form_least_largest_torque():
-    """wheel_minimax's linear program (HiGHS) against the closed form of a 4-wheel array (a one-
-    dimensional null space), 200 demands on a 50 deg pyramid with unequal motor limits: the same
-    least largest share to 1e-9 (HiGHS's tolerances), A u = H' to 1e-12. Along a wheel's own axis
-    of the isotropic pyramid the closed form is 1/2 per unit torque against the pseudo-inverse's 3/4
-    (u = (1, 1, 1, -1)/2 against (1, 3, 1, -1)/4): a third less torque, 1.5 times the capacity."""
-    from testbed.systems.reaction_wheels.minimax_allocation import least_largest_torque
+def test_minimax_allocation_closed_form_is_the_linear_program():
+    """wheel_minimax's closed form for four wheels (a one-dimensional null space: the least of a convex
+    piecewise-linear function of t, at a crossing of two lines or an end of t's interval) against
+    HiGHS's linear program, 200 demands on a 50 deg pyramid with unequal motor limits, friction fed
+    forward and speed bounds that bind on some: the same least largest share to 1e-9 (HiGHS's
+    tolerances), A u = H' to 1e-12. Along a wheel's own axis of the isotropic pyramid the min-max
+    is 1/2 per unit torque against the pseudo-inverse's 3/4 (u = (1, 1, 1, -1)/2 against
+    (1, 3, 1, -1)/4): a third less torque, 1.5 times the capacity."""
+    from testbed.systems.reaction_wheels.minimax_allocation import least_largest_on_a_line, least_largest_torque
     model = {"array": "custom", "wheels": [{"axis": a.tolist(), "max_torque_nm": m} for a, m in
                                            zip(pyramid_axes(50.0), (0.2, 0.25, 0.15, 0.3))]}
     array = load(ReactionWheelsParams, model, "model").wheel_array()
-    free = (np.full(4, -1e9), np.full(4, 1e9))
-    for wanted in np.random.default_rng(38).normal(scale=0.1, size=(200, 3)):
-        u, share = least_largest_torque(array.distribution, wanted, array.torque_max, np.zeros(4), free)
-        assert share == pytest.approx(least_largest_by_hand(array.distribution, wanted, array.torque_max), rel=1e-9)
-        assert np.allclose(array.distribution @ u, wanted, rtol=0, atol=1e-12)
+    inverse, null = np.linalg.pinv(array.distribution), np.linalg.svd(array.distribution)[2][-1]
+    rng = np.random.default_rng(38)
+    bound_some = 0
+    for wanted in rng.normal(scale=0.1, size=(200, 3)):
+        friction = rng.uniform(-0.01, 0.01, 4)
+        speed_bounds = (rng.uniform(-0.3, -0.02, 4), rng.uniform(0.02, 0.3, 4))
+        program = least_largest_torque(array.distribution, wanted, array.torque_max, friction, speed_bounds)
+        closed = least_largest_on_a_line(inverse @ wanted, null, array.torque_max, friction, speed_bounds)
+        assert (program is None) == (closed is None)
+        if closed is None:
+            continue
+        assert closed[1] == pytest.approx(program[1], rel=1e-9, abs=1e-12)
+        assert np.allclose(array.distribution @ closed[0], wanted, rtol=0, atol=1e-12)
+        assert np.all(closed[0] >= speed_bounds[0] - 1e-15) and np.all(closed[0] <= speed_bounds[1] + 1e-15)
+        bound_some += bool(np.any(np.isclose(closed[0], speed_bounds[0]) | np.isclose(closed[0], speed_bounds[1])))
+    assert bound_some > 20  # the speed bounds did bind
     axes = pyramid_axes(ISOTROPIC_SKEW_DEG)
-    u, share = least_largest_torque(axes.T, axes[1], np.ones(4), np.zeros(4), free)
-    assert share == pytest.approx(0.5, rel=1e-9) and np.allclose(u, [0.5, 0.5, 0.5, -0.5], atol=1e-9)
+    free = (np.full(4, -1e9), np.full(4, 1e9))
+    u, share = least_largest_on_a_line(np.linalg.pinv(axes.T) @ axes[1], np.linalg.svd(axes.T)[2][-1], np.ones(4),
+                                       np.zeros(4), free)
+    assert share == pytest.approx(0.5, rel=1e-12) and np.allclose(u, [0.5, 0.5, 0.5, -0.5], atol=1e-12)
     assert np.max(np.abs(np.linalg.pinv(axes.T) @ axes[1])) == pytest.approx(0.75, rel=1e-12)
 
 
