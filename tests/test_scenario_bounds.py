@@ -243,6 +243,13 @@ PINNED = {
         "rate_limit_violations": {"max": 0},
         "min_scale": {"min": 1},
     },
+    "reaction_wheel_slew": {
+        "momentum_drift_rel": {"max": 1e-10},
+        "final_pointing_error_deg": {"max": 3.4e-4},
+        "peak_wheel_momentum_fraction": {"min": 0.16194, "max": 0.16234},
+        "peak_wheel_torque_fraction": {"min": 0.71395, "max": 0.71405},
+        "min_wheel_scale": {"min": 1.0},
+    },
     "reorient_pinv": {
         "final_attitude_error_deg": {"max": 0.01},
         "max_tracking_error_deg": {"max": 0.05},

@@ -29,12 +29,18 @@ def no_feedback_actuator(model) -> bool:
     return all(int(b) == mujoco.mjtBias.mjBIAS_NONE for b in model.actuator_biastype)
 
 
+def frictionless(model) -> bool:
+    """Whether no joint of the compiled model has friction (damping or frictionloss): friction
+    between two bodies is internal, it keeps the momentum but takes energy away."""
+    return not (model.dof_damping.any() or model.dof_frictionloss.any())
+
+
 class Monitors:
     """The guard's monitors of one run, chosen once the plant and pipeline are built.
 
     momentum: the run's momentum_drift_rel, where no external torque acted (no environment, no
     body torque given at any step, no external wrench of the plant's own: `Plant.external_wrench`); energy: energy_drift_rel, where moreover no actuator works
-    (`no_feedback_actuator`); tracking: the plant's `tracking_monitor` (a running reduction and
+    (`no_feedback_actuator`) and no joint has friction (`frictionless`); tracking: the plant's `tracking_monitor` (a running reduction and
     its figure), when it has one for what the allocator commands; the step angle from the
     largest recorded bus rate."""
 
@@ -53,7 +59,7 @@ class Monitors:
             return {}
         rows = {"momentum_drift_rel": (CHECK_NAMES[0], "momentum_drift_rel_max", guard.momentum_drift_rel_max,
                                        "total angular momentum drifted")}
-        if no_feedback_actuator(self.plant.model):
+        if no_feedback_actuator(self.plant.model) and frictionless(self.plant.model):
             rows["energy_drift_rel"] = (CHECK_NAMES[1], "energy_drift_rel_max", guard.energy_drift_rel_max,
                                         "kinetic energy drifted")
         return rows

@@ -169,3 +169,26 @@ def existing_file(field: str, path) -> bool:
         return Path(path).is_file()
     except (OSError, ValueError) as exc:
         raise InputError(field, f"{quoted(str(path))} is not a usable file name: {getattr(exc, 'strerror', None) or exc}") from None
+
+
+def check_inertia_tensor(tensor, path: str) -> np.ndarray:
+    """A full inertia tensor [kg m^2] (3x3, products of inertia off the diagonal, the tensor's own
+    entries I_xy = -sum m x y) as a float (3, 3) array, refused unless symmetric, positive definite,
+    with principal moments in INERTIA_RANGE_KG_M2 and obeying the triangle inequality
+    I_i <= I_j + I_k (any rigid body's principal moments do)."""
+    m = np.asarray(tensor, dtype=float)
+    if m.shape != (3, 3) or not np.all(np.isfinite(m)):
+        raise InputError(path, f"must be a 3x3 matrix of finite numbers, got {quoted(tensor)}")
+    asymmetry = np.abs(m - m.T)
+    if asymmetry.max() > 1e-12 * np.abs(m).max():
+        i, j = np.unravel_index(int(np.argmax(asymmetry)), (3, 3))
+        raise InputError(path, f"must be symmetric: [{i}][{j}] = {m[i, j]:g} but [{j}][{i}] = {m[j, i]:g}")
+    m = (m + m.T) / 2
+    principal = np.linalg.eigvalsh(m)
+    if principal[0] <= 0:
+        raise InputError(path, f"must be positive definite, its smallest principal moment is {principal[0]:g}")
+    try:
+        check_principal_inertia(principal, path)
+    except InputError as exc:
+        raise InputError(path, f"principal moments {np.round(principal, 9).tolist()}: {exc.reason}") from None
+    return m
