@@ -137,8 +137,12 @@ class CheckLimit:
 
     @property
     def text(self) -> str:
-        parts = ([f"<= {self.max:g}"] if self.max is not None else []) + (
-            [f">= {self.min:g}"] if self.min is not None else [])
+        """`<= max and >= min`, each limit exactly (at 6 figures when they hold it, else in full)."""
+        def exact(x: float) -> str:
+            return f"{x:g}" if float(f"{x:g}") == x else repr(float(x))
+
+        parts = ([f"<= {exact(self.max)}"] if self.max is not None else []) + (
+            [f">= {exact(self.min)}"] if self.min is not None else [])
         return " and ".join(parts)
 
 
