@@ -143,6 +143,8 @@ class CmgPlant(Plant):
     """Truth adds gimbal angles and rates, the gimbal-rate command the servos held, rotor
     rates and the cluster momentum H (body frame)."""
 
+    holds_internal_momentum = True
+
     actuators = {"body_torque": (3,), "gimbal_rates": (N_CMG,), "rotor_speeds": (N_CMG,)}
 
     def __init__(self, model, params, control_period: float):
