@@ -130,6 +130,20 @@ def evaluate_checks(scenario, values: dict[str, float], why: dict[str, str] | No
     return rows
 
 
+def value_text(value: float, limit_text: str, passed: bool, figures: int = 4) -> str:
+    """A check's value as a table prints it: `figures` significant figures, more (up to 17, all a double
+    holds) while the printed figure, read back, would get the other verdict against the printed limit
+    (`CheckLimit.text`, `<= max and >= min`): a failing 1.0000000000000002 is never printed as 1 beside
+    `<= 1`."""
+    bounds = [(word, float(number)) for word, number in (part.split() for part in limit_text.split(" and "))]
+    for digits in range(figures, 18):
+        text = f"{value:.{digits}g}"
+        shown = float(text)
+        if (all(shown <= b if word == "<=" else shown >= b for word, b in bounds) and np.isfinite(shown)) == passed:
+            return text
+    return text
+
+
 # --- metrics every free-flying system has ---------------------------------------------------
 
 def _free_flying(scenario) -> bool:

@@ -224,7 +224,10 @@ class OutputCheck:
     Applied to stages from outside the package (plug-ins); the built-ins are tested instead."""
 
     def __init__(self, slot: str, name: str, required=(), shapes: dict | None = None):
-        self.slot, self.name, self.required = slot, name, tuple(required)
+        # the slot's interface keys are required whatever the stage declares (a law's `torque`:
+        # a law without it would leave the allocator no demand, and the run would pass on none)
+        self.slot, self.name = slot, name
+        self.required = tuple(dict.fromkeys((*required, *INTERFACE_SHAPES.get(slot, {}))))
         self.shapes = dict(shapes or {})
 
     def __call__(self, t: float, out) -> None:
@@ -232,7 +235,8 @@ class OutputCheck:
             raise StageFailed(t, self.slot, self.name, f"returned {type(out).__name__}, not a dict of arrays")
         for key in self.required:
             if key not in out:
-                raise StageFailed(t, self.slot, self.name, f"missing key {key!r} (it declares {list(self.required)})")
+                raise StageFailed(t, self.slot, self.name, f"missing key {key!r} (a {self.slot} returns "
+                                  f"{', '.join(map(repr, self.required))})")
         for key, value in out.items():
             try:
                 array = np.asarray(value)

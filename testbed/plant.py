@@ -108,6 +108,10 @@ class Plant:
         mujoco.mj_energyVel(self.model, self.data)
         return float(self.data.energy[1])
 
+    # Whether the plant holds a momentum device (rotors, wheels, CMGs) whose momentum
+    # `internal_momentum_body` reports, for magnetorquers to unload; a rigid body holds none.
+    holds_internal_momentum = False
+
     def internal_momentum_body(self) -> np.ndarray:
         """Momentum of the moving parts relative to the bus, body frame (none for a rigid body)."""
         return np.zeros(3)

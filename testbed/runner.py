@@ -246,6 +246,18 @@ class RunInProgress:
         return self._context.__exit__(*exc_info)
 
     @property
+    def time(self) -> float:
+        """The run's time [s] after the periods run: ticks_done control periods on the grid, exact
+        (MuJoCo's clock adds dt at each step and drifts by round-off, 1e-11 s over 1000 steps);
+        the plant's clock once the run has diverged or failed within a period."""
+        if self.status != "ok":
+            return self.plant.time
+        sim = self.scenario.sim
+        if self._per_tick == 1:
+            return self.ticks_done * sim.control_period_s
+        return self.ticks_done * self._per_tick * sim.estimator_period_s
+
+    @property
     def running(self) -> bool:
         """Whether control periods are left to run and the run has neither diverged nor failed."""
         return self.status == "ok" and self.ticks_done < self.n_ticks
@@ -282,6 +294,11 @@ class RunInProgress:
         of what ran (the whole run, or the periods run so far), written into the `.rrd`."""
         scenario, recorder, pipeline = self.scenario, self.recorder, self.pipeline
         recorder.flush()
+        if self.status == "ok" and 0 < self.ticks_done < self.n_ticks and self.time > recorder.last_time:
+            # closed before its end: the truth where it stopped, so the periods after the last trace
+            # sample count (as the end of a whole run records its final state)
+            recorder.sample(self.time, {"truth": self.plant.truth()})
+            recorder.flush()
         self.stream.finish(recorder)
         data = RunData(scenario, recorder, {slot: stage.statistics for slot, stage in pipeline.stages().items()
                                             if hasattr(stage, "statistics")},
@@ -351,7 +368,10 @@ class _ChunkStream:
         return [chunk]
 
     def _emit(self, chunk) -> None:
-        self.reductions.update(chunk)
+        # a metric's running reduction under- or overflows to a value that is not finite, which fails
+        # its checks with the reason (metrics.compute_all): not a numpy warning, nor the run's divergence
+        with np.errstate(all="ignore"):
+            self.reductions.update(chunk)
         if self.writer is not None:
             self.writer.write(chunk)
 

@@ -7,6 +7,7 @@ from testbed.cli import main
 from testbed.scenario.shipped_files import SCENARIO_DIR
 
 COVARIANCE = "[[1,0,0,0,0,0],[0,1,0,0,0,0],[0,0,1,0,0,0],[0,0,0,1,0,0],[0,0,0,0,1,0],[0,0,0,0,0,-1]]"
+RAGGED = "[[1,0,0,0,0,0],[0,1,0,0,0,0],[0,0,1,0,0,0],[0,0,0,1,0,0],[0,0,0,0,1,0],[1]]"
 ALLOCATOR = '''
 import numpy as np
 import testbed
@@ -40,6 +41,15 @@ class OwnGyroscopic:
     ("pipeline.sensor.star_tracker.outages_s=[[30,10]]", "pipeline.sensor.star_tracker.outages_s[0]"),
     ("pipeline.sensor.star_tracker.sun_exclusion_deg=30", "pipeline.sensor.star_tracker.sun_exclusion_deg"),
     (f"pipeline.estimator.initial_covariance={COVARIANCE}", "pipeline.estimator.initial_covariance"),
+    # a ragged P0 (five rows of six, one of one) raised numpy's inhomogeneous-shape ValueError
+    (f"pipeline.estimator.initial_covariance={RAGGED}", "pipeline.estimator.initial_covariance[5]"),
+    # floating-point edges: each under- or overflowed at build or at t = 0 as a numpy exception
+    ("pipeline.sensor.star_tracker.cross_boresight_noise_arcsec=1e-300",
+     "pipeline.sensor.star_tracker.cross_boresight_noise_arcsec"),
+    ("pipeline.sensor.gyro.angle_random_walk_rad_sqrt_s=1e200", "pipeline.sensor.gyro.angle_random_walk_rad_sqrt_s"),
+    ("pipeline.sensor.gyro.rate_random_walk_rad_s_sqrt_s=1e200", "pipeline.sensor.gyro.rate_random_walk_rad_s_sqrt_s"),
+    ("pipeline.sensor.gyro.quantisation_rad=1e-320", "pipeline.sensor.gyro.quantisation_rad"),
+    ("pipeline.sensor.gyro.initial_bias_rad_s=[1e300, 0, 0]", "pipeline.sensor.gyro.initial_bias_rad_s[0]"),
 ])
 def test_refused_naming_the_field(assignment, field, tmp_path, monkeypatch, capfd):
     monkeypatch.chdir(tmp_path)
@@ -76,3 +86,31 @@ def test_a_law_and_an_allocator_that_both_compensate_are_refused(tmp_path, monke
     assert main(["run", str(path)]) == 2
     err = capfd.readouterr().err
     assert err.startswith("error: pipeline.allocator.type:") and "internal_momentum" in err, err
+
+
+@pytest.mark.parametrize("end", [0, 1])
+def test_the_sensor_bounds_hold_the_filter_in_normal_doubles(end):
+    """At both ends of every bounded gyro and tracker parameter, the package and the MEKF build and
+    filter the first samples with every floating-point error raising (what the bounds promise)."""
+    import numpy as np
+
+    import testbed
+    from testbed.sensors.gyro_package import GyroPackageParams
+    from testbed.sensors.star_tracker import NOISE_RANGE_ARCSEC
+
+    def edge(name):
+        meta = GyroPackageParams.__dataclass_fields__[name].metadata
+        return (meta["ge"], meta["le"])[end]
+
+    noise = NOISE_RANGE_ARCSEC[end]
+    overrides = [f"pipeline.sensor.gyro.{name}={edge(name)}" for name in
+                 ("angle_random_walk_rad_sqrt_s", "rate_random_walk_rad_s_sqrt_s")]
+    overrides += [f"pipeline.sensor.gyro.initial_bias_rad_s=[{edge('initial_bias_rad_s')}, 0, 0]",
+                  f"pipeline.sensor.gyro.scale_factor_ppm=[{edge('scale_factor_ppm')}, 0, 0]",
+                  f"pipeline.sensor.gyro.misalignment_rad=[{edge('misalignment_rad')}, 0, 0, 0, 0, 0]",
+                  f"pipeline.sensor.gyro.quantisation_rad={(1e-12, 1.0)[end]}",
+                  f"pipeline.sensor.star_tracker.cross_boresight_noise_arcsec={noise}",
+                  f"pipeline.sensor.star_tracker.about_boresight_noise_arcsec={noise}", "sim.duration_s=1"]
+    with np.errstate(all="raise"):
+        result = testbed.run("attitude_hold_mekf", overrides=overrides)
+    assert result.status == "ok", result.error

@@ -142,3 +142,24 @@ def test_each_command_builds_each_plant_and_reads_each_file_once(tmp_path, capsy
     assert main(["check", "gyrostat_free", "torque_free_tumble", "--out-dir", str(tmp_path)]) in (0, 1)
     assert counts["plants"] == 2
     capsys.readouterr()
+
+
+@pytest.mark.parametrize("value, limit, passed, shown", [
+    (1.0000000000000002, "<= 1", False, "1.0000000000000002"),   # printed as 1 beside FAIL before
+    (0.9999999999999999, ">= 1", False, "0.9999999999999999"),
+    (1.00004, "<= 1", False, "1.00004"),                 # 4 figures read 1 (passing): 6 needed
+    (1.00004, "<= 2", True, "1"),                                  # a pass keeps 4 figures
+    (0.2, ">= 0.1 and <= 0.3", True, "0.2"),
+    (float("nan"), "<= 1", False, "nan"),
+])
+def test_a_value_is_never_printed_passing_beside_fail(value, limit, passed, shown):
+    from testbed.metrics import value_text
+
+    assert value_text(value, limit, passed) == shown
+
+
+def test_a_limit_is_printed_exactly():
+    from testbed.scenario.loading import CheckLimit
+
+    assert CheckLimit(max=1.0).text == "<= 1"
+    assert CheckLimit(max=1.0000001, min=-2.5).text == "<= 1.0000001 and >= -2.5"  # :g read 1

@@ -348,3 +348,11 @@ def test_the_shipped_campaigns_build_and_read_back(name, count):
     assert load_spec(data["sweep"]).count == count
     for case in cases:
         assert {source for _, source in case.prepared["applied"].values()} <= {"model", "stage"}
+
+
+def test_a_numeric_dispersion_on_an_empty_list_field_is_refused_not_drawn_empty():
+    """An empty nominal list gave len 0 components: every case drew [] and nothing was dispersed."""
+    with pytest.raises(InputError) as refused:
+        draws({"uniform": [0.0, 1.0]}, 2, [])
+    assert refused.value.field == "x" and "give size: N" in refused.value.reason
+    assert np.array(draws({"uniform": [0.0, 1.0], "size": 2}, 5, [])).shape == (5, 2)

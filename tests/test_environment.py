@@ -9,6 +9,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 import testbed
@@ -75,6 +77,19 @@ def test_the_desaturation_dipole_is_the_cross_product_law_clipped_in_direction()
     np.testing.assert_allclose(np.cross(m, b), -k * perp, rtol=1e-12)
     clipped = desaturation_dipole(h, np.zeros(3), b, k, [10.0] * 3)
     assert np.abs(clipped).max() == pytest.approx(10.0) and np.allclose(np.cross(clipped, m), 0.0, atol=1e-9)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.floats(-1e3, 1e3), min_size=3, max_size=3), st.lists(st.floats(-6e-5, 6e-5), min_size=3, max_size=3),
+       st.floats(1e-6, 1.0), st.lists(st.floats(0.1, 100.0), min_size=3, max_size=3))
+def test_a_clipped_dipole_never_exceeds_its_limit_by_a_rounding(h, b, k, limits):
+    """|m_i| <= m_max,i exactly (peak_dipole_use <= 1 is a physical bound: a saturated magnetorquer
+    read 1.0000000000000002 and failed the shipped max: 1.0), the direction the law's within round-off."""
+    assume(np.linalg.norm(b) > 1e-7)
+    m = desaturation_dipole(h, np.zeros(3), b, k, limits)
+    assert np.all(np.abs(m) <= np.asarray(limits))
+    law = k * np.cross(h, b) / (np.asarray(b) @ b)
+    assert np.linalg.norm(np.cross(m, law)) <= 1e-12 * np.linalg.norm(m) * np.linalg.norm(law) + 1e-300
 
 
 SHORT = ["sim.duration_s=1200", "sim.trace_period_s=2", "environment.magnetorquers.gain_1_s=1.5e-3"]

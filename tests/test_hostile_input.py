@@ -1600,3 +1600,36 @@ def test_a_sweep_out_that_is_a_dangling_symlink_is_written_through(cli, inputs, 
     assert result.code == 0 and "Traceback" not in result.err, result.err
     assert link.is_symlink() and (result.cwd / target / "mini_sweep.csv").is_file()
     assert (result.cwd / target / "summary" / "summary.json").is_file()
+
+
+# --- the third round's smaller breaks (issue 37, finding 8) ---------------------------------------
+
+def test_init_with_an_empty_folder_name_writes_nothing(tmp_path, monkeypatch, capsys):
+    """Path('') is '.': `testbed init ''` wrote the templates into the current folder, exit 0."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["init", ""]) == 2
+    assert capsys.readouterr().err.startswith("error: DIR: is empty") and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("assignment, field, words", [
+    ("pipeline.allocator.gimbal_angle_limits_deg=[[-1000, 1000], null, null, null]",
+     "pipeline.allocator.gimbal_angle_limits_deg[0]", "within one turn of zero"),
+    ("pipeline.sensor.gyro.seed=18446744073709551615", "pipeline.sensor.gyro.seed", "within +-(2^63 - 1)"),
+])
+def test_a_figure_beyond_its_meaning_is_refused(tmp_path, monkeypatch, capsys, assignment, field, words):
+    monkeypatch.chdir(tmp_path)
+    scenario = "attitude_hold_mekf" if "gyro" in assignment else "reorient_gimbal_limits"
+    assert main(["run", scenario, "--set", assignment]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {field}: ") and words in err and len(err.strip().splitlines()) == 1, err
+
+
+@pytest.mark.filterwarnings("error")
+def test_a_huge_torque_through_the_api_gives_no_numpy_warning():
+    """A law's 1e300 N m overflowed the torque metrics' squares with a raw RuntimeWarning; the
+    metric is now not finite and fails its check with the reason."""
+    result = testbed.run("reorient_minimax", overrides=["sim.duration_s=1"],
+                         stages={"law": lambda t, estimate: {"torque": np.array([1e300, 0.0, 0.0])}})
+    assert result.status == "ok" and result.metrics["torque_error_rms"] == np.inf
+    row = next(c for c in result.checks if c["name"] == "torque_error_rel")
+    assert not row["passed"] and row["reason"] == "the recorded signals give no finite value"

@@ -159,6 +159,24 @@ def test_a_plugin_may_not_shadow_a_builtin(tmp_path, capsys):
 def test_a_failing_stage_ends_the_run_as_error_with_its_trace(tmp_path, capsys, body, words):
     law = unique(tmp_path, "failing")
     path = write_case(tmp_path, law, body)
+    _ends_as_error_at_1_s(tmp_path, capsys, law, path, words)
+
+
+@pytest.mark.parametrize("body", [
+    'return {"tork": np.zeros(3)} if t >= 1.0 else {"torque": -self.k @ estimate["omega"]}',
+    'return {} if t >= 1.0 else {"torque": -self.k @ estimate["omega"]}',
+])
+def test_a_law_declaring_no_outputs_still_owes_its_torque(tmp_path, capsys, body):
+    """The law interface's `torque` is required whatever the law declares (docs/controller.md):
+    without it the allocator was left no demand, and the run passed with status ok on zero torque."""
+    law = unique(tmp_path, "undeclared")
+    path = write_case(tmp_path, law, body)
+    laws = tmp_path / "laws.py"
+    laws.write_text(laws.read_text().replace('    outputs = ("torque",)\n', ""))
+    _ends_as_error_at_1_s(tmp_path, capsys, law, path, "missing key 'torque' (a law returns 'torque')")
+
+
+def _ends_as_error_at_1_s(tmp_path, capsys, law, path, words):
     out = tmp_path / "x.rrd"
     assert main(["run", str(path), "--out", str(out), "--json"]) == 1
     result = json.loads(capsys.readouterr().out)

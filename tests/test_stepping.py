@@ -219,3 +219,28 @@ def test_a_given_output_without_the_keys_its_slot_gives_is_refused_before_the_st
     sim.close()
     with pytest.raises(testbed.InputError, match="keep_trace"):
         testbed.Simulation("reorient_minimax", ["sim.duration_s=0.5"], keep_trace="no")
+
+
+def test_a_run_closed_before_its_end_keeps_the_periods_after_its_last_trace_sample():
+    """10 s stepped of a 20 s run sampled every 10 s closed with sim_s 0 and no metrics: the periods
+    after the sample at t = 0 were dropped. Closed there, it is the 10 s run (a second method)."""
+    sets = ["sim.duration_s=20", "sim.trace_period_s=10", "sim.control_period_s=0.5", "sim.dt_s=0.1"]
+    sim = testbed.Simulation("orbit_momentum_management", sets, keep_trace=False)
+    for _ in range(20):
+        sim.step()
+    early = sim.close()
+    whole = testbed.run("orbit_momentum_management", overrides=[*sets, "sim.duration_s=10"])
+    assert early.sim_s == whole.sim_s == 10.0
+    assert early.metrics.keys() == whole.metrics.keys() and early.metrics
+    # the same periods: equal but for round-off (peak_envelope_share differs by one ulp)
+    np.testing.assert_allclose(list(early.metrics.values()), list(whole.metrics.values()), rtol=1e-15, atol=0)
+
+
+def test_the_time_of_a_stepped_run_is_on_its_grid():
+    """500 periods of 0.2 s are 100 s exactly (MuJoCo's clock, adding dt, read 100.00000000001407)."""
+    sim = testbed.Simulation("reorient_minimax", ["sim.control_period_s=0.2", "sim.trace_period_s=0.2",
+                                                  "sim.duration_s=120"], keep_trace=False)
+    for _ in range(500):
+        sim.step()
+    assert sim.time == 100.0 and sim.ticks == 500
+    sim.close()

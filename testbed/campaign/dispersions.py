@@ -96,6 +96,9 @@ class Dispersion:
         if self.kind == "misalignment_deg":
             return misaligned(_unit_nominal(nominal, path), np.radians(self.misalignment_deg), rng).tolist()
         vector = isinstance(nominal, (list, tuple))
+        if vector and not nominal and self.size is None:  # len 0 would draw an empty list: nothing
+            raise InputError(path, "its nominal value is an empty list, so there are no components to "
+                                   "draw; give size: N")
         count = self.size or (len(nominal) if vector else None)
         if (self.relative or self.offset) and not _is_numeric(nominal, count):
             raise InputError(path, f"{'relative' if self.relative else 'offset'} needs a numeric nominal value "

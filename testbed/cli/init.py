@@ -183,6 +183,8 @@ def _write_new(path: Path, text: str) -> None:
 
 
 def run(args) -> int:
+    if not str(args.dir).strip():  # Path("") is ".": an empty name would write into the current folder
+        raise InputError("DIR", "is empty; name the folder to create (`.` for the current one, if empty)")
     folder = Path(args.dir)
     created = _target_folder(folder)
     scenario, controller = folder / SCENARIO_FILE, folder / CONTROLLER_FILE

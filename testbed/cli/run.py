@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from testbed import api
+from testbed.metrics import value_text
 from testbed.cli.commands import EXIT_FAILED, EXIT_OK, command, reported
 from testbed.cli.json_stdout import reserved_for_json
 from testbed.cli.progress import advance_to, progress_bar
@@ -85,7 +86,8 @@ def print_checks(rows) -> None:
     print(f"{'scenario':28s} {'check':32s} {'value':>12s}  {'limit':16s} result")
     for scenario, c in rows:
         why = f"  ({c['reason']})" if "reason" in c else ""
-        print(f"{scenario:28s} {c['name']:32s} {c['value']:12.4g}  {c['limit']:16s} "
+        value = value_text(c["value"], c["limit"], c["passed"])
+        print(f"{scenario:28s} {c['name']:32s} {value:>12s}  {c['limit']:16s} "
               f"{'pass' if c['passed'] else 'FAIL'}{why}")
 
 

@@ -71,7 +71,13 @@ class Surroundings:
         self.applied_world = np.zeros(6)  # the wrench held on the bus until the next update
 
     def _check_fit(self, orbit_params, plant) -> None:
-        """Refuse, before the run, an orbit the drag model is not valid at."""
+        """Refuse, before the run, magnetorquers with no momentum to unload, and an orbit the drag
+        model is not valid at."""
+        torquers = None if self.params is None else self.params.magnetorquers
+        if torquers is not None and torquers.desaturation and not plant.holds_internal_momentum:
+            raise InputError("environment.magnetorquers", "the desaturation law unloads a momentum device "
+                             "(rotors, CMGs), and this model holds none: its dipole would stay zero "
+                             "(desaturation: false flies idle magnetorquers)")
         if self.params is None or self.params.drag is None:
             return
         perigee, apogee = orbit_params.perigee_apogee_m()

@@ -50,6 +50,8 @@ class OrbitParams:
             if self.altitude_km is not None or self.semi_major_axis_km is not None:
                 raise InputError(join(path, "tle"), "give a TLE or the elements, not both")
             self.satrec = parse_tle(self.tle, join(path, "tle"))
+            epoch_jd(self.epoch_utc, join(path, "epoch_utc"))
+            self.check_propagates(path, (0.0, self.step_s))  # the grid's first states, read at t = 0
             return
         if (self.altitude_km is None) == (self.semi_major_axis_km is None):
             raise InputError(join(path, "semi_major_axis_km"), "give one of semi_major_axis_km and altitude_km")
@@ -60,6 +62,21 @@ class OrbitParams:
             raise InputError(join(path, "semi_major_axis_km"), f"the perigee radius {perigee_km:.6g} km is inside "
                              f"the Earth (radius {EARTH_RADIUS_M / 1e3:g} km)")
         epoch_jd(self.epoch_utc, join(path, "epoch_utc"))
+
+    def check_propagates(self, path: str, times) -> None:
+        """A TLE's SGP4 propagates to each of `times` [s] from t = 0, else bad input naming the field
+        that puts the orbit there: epoch_utc when given, else the TLE (decayed, diverged)."""
+        from sgp4.api import SGP4_ERRORS
+
+        if self.tle is None:
+            return
+        own_epoch = self.epoch_utc == OrbitParams.__dataclass_fields__["epoch_utc"].default
+        for t in times:
+            error, _, _ = self.satrec.sgp4(self.start_jd, t / 86400.0)
+            if error:
+                field = join(path, "tle" if own_epoch else "epoch_utc")
+                raise InputError(field, f"SGP4 cannot propagate the TLE to t = {t:g} s "
+                                 f"({SGP4_ERRORS.get(error, f'error {error}')})")
 
     @property
     def start_jd(self) -> float:
@@ -94,6 +111,9 @@ def parse_tle(lines, path: str):
     from sgp4.api import Satrec
 
     first, second = (str(line).rstrip() for line in lines)
+    for i, line in enumerate((first, second)):
+        if not line.isascii():
+            raise InputError(f"{path}[{i}]", "holds a character that is not ASCII; a TLE line is plain ASCII")
     if not (first.startswith("1 ") and second.startswith("2 ") and len(first) >= 64 and len(second) >= 63):
         raise InputError(path, "is not a two-line element set (line 1 starts '1 ', line 2 '2 ', 69 columns each)")
     try:

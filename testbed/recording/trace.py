@@ -30,6 +30,7 @@ import numpy as np
 import rerun as rr
 
 from testbed.interrupts import signals_held
+from testbed.metrics import value_text
 from testbed.recording.atomic_file import partial_beside, publish
 from testbed.recording.blueprint import RESULT_ENTITY, UNITS, blueprint, series_names
 from testbed.recording.decimation import block_starts, minmax_decimate
@@ -206,7 +207,8 @@ def _summary_markdown(result: dict) -> str:
         lines += [f"error: {result['error']}", ""]
     if result.get("checks"):
         lines += ["| check | value | limit | passed |", "|---|---|---|---|"]
-        lines += [f"| {c['name']} | {c['value']:.4g} | {c['limit']} | {c['passed']} |" for c in result["checks"]]
+        lines += [f"| {c['name']} | {value_text(c['value'], c['limit'], c['passed'])} | {c['limit']} | {c['passed']} |"
+                  for c in result["checks"]]
     lines += ["", "| metric | value |", "|---|---|"]
     lines += [f"| {k} | {v:.6g} |" for k, v in result.get("metrics", {}).items()]
     return "\n".join(lines)

@@ -22,6 +22,7 @@ first, so they are validated exactly like the file.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -136,8 +137,12 @@ class CheckLimit:
 
     @property
     def text(self) -> str:
-        parts = ([f"<= {self.max:g}"] if self.max is not None else []) + (
-            [f">= {self.min:g}"] if self.min is not None else [])
+        """`<= max and >= min`, each limit exactly (at 6 figures when they hold it, else in full)."""
+        def exact(x: float) -> str:
+            return f"{x:g}" if float(f"{x:g}") == x else repr(float(x))
+
+        parts = ([f"<= {exact(self.max)}"] if self.max is not None else []) + (
+            [f">= {exact(self.min)}"] if self.min is not None else [])
         return " and ".join(parts)
 
 
@@ -216,6 +221,8 @@ def _orbit_blocks(raw: _RawScenario, system_name: str) -> tuple:
         raise InputError("environment", "the environment needs an orbit: add an orbit: block")
     if orbit is not None and not systems_registry.SYSTEMS[system_name].free_flying:
         raise InputError("orbit", f"model.system {system_name} is not a free-flying system")
+    if orbit is not None:  # the grid state after the run's end is read too
+        orbit.check_propagates("orbit", ((math.floor(raw.sim.end_time_s / orbit.step_s) + 1) * orbit.step_s,))
     return orbit, environment
 
 
@@ -239,7 +246,26 @@ def apply_override(data: dict, assignment: str) -> None:
     key, text = assignment.split("=", 1)
     if not all(key.strip().split(".")):
         raise InputError("--set", f"bad key path {key!r}")
+    if not text.strip():  # `KEY=` removes the key: its default stands (`KEY=null` sets null)
+        remove_field(data, key.strip())
+        return
     set_field(data, key.strip(), yaml_load(text, f"--set {key}"))
+
+
+def remove_field(data: dict, path: str) -> None:
+    """Remove the key at dotted `path` of a raw scenario mapping, in place (nothing when it is absent;
+    an item of a list cannot be removed: its place would shift the others)."""
+    parts = path.split(".")
+    node = data
+    for i, part in enumerate(parts[:-1]):
+        node = _list_item(node, part, parts[: i + 1]) if isinstance(node, list) else node.get(part)
+        if node is None:
+            return
+        if not isinstance(node, (dict, list)):
+            raise InputError(".".join(parts[: i + 1]), "is not a mapping, cannot remove a key below it")
+    if isinstance(node, list):
+        raise InputError(path, "an item of a list cannot be removed; set the whole list")
+    node.pop(parts[-1], None)
 
 
 def set_field(data: dict, path: str, value) -> None:

@@ -80,7 +80,7 @@ def _convert(tp, value, path: str, meta: dict):
         if isinstance(value, bool) or not isinstance(value, int):
             raise InputError(path, f"must be an integer, got {quoted(value)}")
         if abs(value) > 2**63 - 1:  # what numpy and the seeds can hold
-            raise InputError(path, f"must fit in 64 bits, got {quoted(value)}")
+            raise InputError(path, f"must lie within +-(2^63 - 1), a signed 64-bit integer, got {quoted(value)}")
         _check_bounds(value, path, meta)
         return value
     if tp is bool:

@@ -24,25 +24,37 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from testbed.scenario.schema import param
+from testbed.errors import InputError
+from testbed.scenario.schema import join, param
 from testbed.stages.white_noise import WhiteNoise
 
 ZERO3 = [0.0, 0.0, 0.0]
 ZERO6 = [0.0] * 6
 # the order of `misalignment_rad`: the off-diagonal entries (row, column) of S
 OFF_DIAGONAL = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))
+# The noise densities and errors are bounded where the package's and the filter's squares and
+# products stay normal doubles (docs/theory/attitude_determination.md "Gyro package"): an ARW of
+# 1e200 overflows its square, a quantum of 1e-320 its quotient angle / step. A quantum below this
+# is far finer than any gyro's and is refused, not rounded to.
+SMALLEST_QUANTUM_RAD = 1e-12
 
 
 @dataclass(kw_only=True)
 class GyroPackageParams:
-    angle_random_walk_rad_sqrt_s: float = param(gt=0, doc="sigma_v: white rate noise density (ARW)")
-    rate_random_walk_rad_s_sqrt_s: float = param(gt=0, doc="sigma_u: bias random walk density (RRW)")
-    initial_bias_rad_s: list[float] = param(ZERO3, length=3, doc="bias at t = 0, package axes = body axes")
-    scale_factor_ppm: list[float] = param(ZERO3, length=3, doc="scale-factor error per axis (diagonal of S)")
-    misalignment_rad: list[float] = param(ZERO6, length=6, doc="off-diagonal of S: xy, xz, yx, yz, zx, zy")
-    quantisation_rad: float = param(0.0, ge=0, doc="angle-increment step of the output (0: none)")
+    angle_random_walk_rad_sqrt_s: float = param(ge=1e-15, le=1.0, doc="sigma_v: white rate noise density (ARW)")
+    rate_random_walk_rad_s_sqrt_s: float = param(ge=1e-18, le=1.0, doc="sigma_u: bias random walk density (RRW)")
+    initial_bias_rad_s: list[float] = param(ZERO3, length=3, ge=-1.0, le=1.0, doc="bias at t = 0, package axes = body axes")
+    scale_factor_ppm: list[float] = param(ZERO3, length=3, ge=-1e6, le=1e6, doc="scale-factor error per axis (diagonal of S)")
+    misalignment_rad: list[float] = param(ZERO6, length=6, ge=-1.0, le=1.0, doc="off-diagonal of S: xy, xz, yx, yz, zx, zy")
+    quantisation_rad: float = param(0.0, ge=0, le=1.0, doc="angle-increment step of the output (0: none, else "
+                                    f"at least {SMALLEST_QUANTUM_RAD:g})")
     sample_period_s: float | None = param(None, gt=0, doc="default: the sensor period (sim.estimator_period_s)")
     seed: int = param(0, ge=0, doc="noise seed: the same seed gives the same samples bit for bit")
+
+    def validate(self, path: str) -> None:
+        if 0 < self.quantisation_rad < SMALLEST_QUANTUM_RAD:
+            raise InputError(join(path, "quantisation_rad"), f"must be 0 (no quantisation) or at least "
+                             f"{SMALLEST_QUANTUM_RAD:g} rad, got {self.quantisation_rad:g}")
 
 
 def sensing_matrix(params: GyroPackageParams) -> np.ndarray:

@@ -32,6 +32,13 @@ from scipy.spatial import cKDTree
 from testbed.steering.momentum_fibres import TAU, difference, measures, next_level, onto_level, trace_chain, wrapped
 
 M_TARGET, MEASURE_FLOOR = 0.3, 0.05
+LINK_RADIUS = 0.3  # [rad] the most any gimbal moves between two levels of the plan
+# The planner's work bound (docs/theory/steering.md "What a plan costs"): a fibre of the unit
+# pyramid is at most FIBRE_LENGTH [rad] long (longest traced: 75 rad, skews 30-80 deg), its samples
+# at least CROWDING x spacing apart, so a level holds at most FIBRE_LENGTH / (CROWDING spacing)
+# samples, each linked to at most 2 LINK_RADIUS / (CROWDING spacing) + 1 of the next level.
+FIBRE_LENGTH, CROWDING = 100.0, 0.6
+PLAN_WORK_LIMIT = 1e8  # at worst about 50 s of CPU (15 us a sample, measured); 4.1e6 by default
 
 
 @dataclass(slots=True)
@@ -66,6 +73,14 @@ class PlannedPath:
         return float(np.abs(np.diff(self.reconfiguration, axis=0)).max(axis=-1).sum()) if len(self.reconfiguration) > 1 else 0.0
 
 
+def planning_work(levels: int, spacing: float) -> float:
+    """The bound on the planner's work (module doc): (levels + 1) x samples per level x (1 + links per
+    sample), for `levels` momentum levels and samples `spacing` [rad] apart."""
+    samples = FIBRE_LENGTH / (CROWDING * spacing)
+    links = 2 * LINK_RADIUS / (CROWDING * spacing) + 1
+    return (levels + 1) * samples * (1 + links)
+
+
 def least_times(times: np.ndarray, levels_of_time: np.ndarray, level_values: np.ndarray) -> np.ndarray:
     """dt_k = (s_(k+1) - s_k) / max |s'| over the program's steps that cross [s_k, s_(k+1)]: the least time
     between the levels, on the way up or down (inf for an interval the program never crosses)."""
@@ -91,7 +106,7 @@ def _links(lower: np.ndarray, upper: np.ndarray, radius: float):
 
 def plan_gimbal_path(momentum, jacobian, start, direction, times, levels_of_time, rate_max: float, *,
                      reconfiguration_travel: float, levels: int = 60, spacing: float = np.radians(3.0),
-                     link_radius: float = 0.3, rate_margin: float = 0.9, m_target: float = M_TARGET,
+                     link_radius: float = LINK_RADIUS, rate_margin: float = 0.9, m_target: float = M_TARGET,
                      measure_floor: float = MEASURE_FLOOR) -> PlannedPath | None:
     """The plan of the module doc for the cluster's unit-h `momentum(B)` and `jacobian(B)` (stacked angles),
     the start angles (on H = s(0) d), the unit `direction` d and the program's s(t) [h] at `times` [s];

@@ -21,11 +21,14 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.guidance.slew import build_program
 from testbed.pipeline import stage
-from testbed.scenario.schema import param
-from testbed.steering.planned_path import plan_gimbal_path
+from testbed.scenario.schema import join, param
+from testbed.steering.planned_path import PLAN_WORK_LIMIT, plan_gimbal_path, planning_work
 from testbed.steering.stage import SteeringAllocator, SteeringParams
 
 TYPE = "pipeline.allocator.type"
+PATH = "pipeline.allocator"
+SMALLEST_PROGRAM = 1e-9  # [h] peak momentum of a program below which there is nothing to plan
+MAX_PLAN_STEPS = 10_000  # the program is sampled this often at most (0.2 ms a sample, measured)
 
 
 @dataclass(kw_only=True)
@@ -33,6 +36,14 @@ class PlannedParams(SteeringParams):
     plan_step_s: float = param(0.1, gt=0, doc="time step of the planned path")
     plan_levels: int = param(60, ge=4, le=1000, doc="momentum levels of the planning graph")
     plan_spacing_deg: float = param(3.0, gt=0, le=30, doc="spacing of the samples along each fibre")
+
+    def validate(self, path: str) -> None:
+        super().validate(path)
+        work = planning_work(self.plan_levels, np.radians(self.plan_spacing_deg))
+        if work > PLAN_WORK_LIMIT:
+            raise InputError(join(path, "plan_levels"), f"{self.plan_levels} levels of samples "
+                             f"{self.plan_spacing_deg:g} deg apart bound the planner's work at {work:.3g}, "
+                             f"over its limit {PLAN_WORK_LIMIT:.3g}: fewer levels or a wider spacing")
 
 
 @stage("allocator", "planned", PlannedParams)
@@ -57,11 +68,19 @@ class PlannedAllocator(SteeringAllocator):
             raise InputError(TYPE, "planned steering plans rest-to-rest slews from rest")
         if np.linalg.norm(self.geometry.momentum(self.start)) > 1e-6 * self.geometry.h:
             raise InputError(TYPE, "planned steering needs a start holding no momentum (a zero-momentum set)")
+        steps = program.duration_s / params.plan_step_s
+        if steps > MAX_PLAN_STEPS:
+            raise InputError(join(PATH, "plan_step_s"), f"samples the {program.duration_s:g} s slew in {steps:.3g} "
+                             f"steps, over the limit {MAX_PLAN_STEPS}: a plan step of at least "
+                             f"{program.duration_s / MAX_PLAN_STEPS:.3g} s")
         trajectory = build_program(program, ctx.initial.quat)
         inertia, h = np.asarray(ctx.inertia, float), self.geometry.h
-        times = np.linspace(0.0, program.duration_s, max(2, int(np.ceil(program.duration_s / params.plan_step_s)) + 1))
+        times = np.linspace(0.0, program.duration_s, max(2, int(np.ceil(steps)) + 1))
         wanted = -np.array([inertia @ trajectory.rate(t) for t in times]) / h
         peak = wanted[np.argmax(np.linalg.norm(wanted, axis=-1))]
+        if not np.linalg.norm(peak) > SMALLEST_PROGRAM:  # a zero slew: no line, no levels to plan between
+            raise InputError("pipeline.law.angle_deg", f"the slew asks the cluster for {np.linalg.norm(peak):.3g} h "
+                             f"at most; planned steering plans slews asking for more than {SMALLEST_PROGRAM:g} h")
         direction = peak / max(np.linalg.norm(peak), 1e-300)
         levels = wanted @ direction
         off_line = max(np.abs(wanted - levels[:, None] * direction).max(), -levels.min())  # round-off for a line

@@ -70,6 +70,7 @@ from testbed.steering.singularity_type import NOT_SINGULAR, singularity_type
 STAGE_RCOND = 1e-2  # relative singular-value cut for the stage (see module doc)
 ACCELERATION_ROUNDING = 1e-9  # relative slack of the acceleration count for the bounds' rounding
 ANGLE_LIMITS = "pipeline.allocator.gimbal_angle_limits_deg"
+STOP_RANGE_DEG = 360.0  # a travel stop further from zero is a gimbal without stops (null), misnamed
 
 
 @dataclass(kw_only=True)
@@ -95,6 +96,9 @@ class SteeringParams:
                 raise InputError(field_path, "must be [min, max] in deg, or null for no stops")
             if pair is not None and not pair[0] < pair[1]:
                 raise InputError(field_path, f"min {pair[0]:g} deg must be below max {pair[1]:g} deg")
+            if pair is not None and max(abs(pair[0]), abs(pair[1])) > STOP_RANGE_DEG:
+                raise InputError(field_path, f"a stop lies within one turn of zero (+-{STOP_RANGE_DEG:g} deg), "
+                                 f"got [{pair[0]:g}, {pair[1]:g}]; null is a gimbal without stops")
 
 
 def configured_limits(params: SteeringParams, ctx, gimbals: int) -> GimbalLimits | None:

@@ -165,8 +165,9 @@ class Simulation:
 
     @property
     def time(self) -> float:
-        """The simulated time now [s]: the start of the next control period."""
-        return self._episode().plant.time
+        """The simulated time now [s]: the start of the next control period, on the grid exactly
+        (ticks x sim.control_period_s; `plant.time`, MuJoCo's clock, drifts by round-off)."""
+        return self._episode().time
 
     @property
     def ticks(self) -> int:
@@ -220,12 +221,6 @@ class Simulation:
             with self._run:
                 self.result = self._run.finish()
 
-    @staticmethod
-    def _expected_keys(slot: str) -> tuple:
-        """The keys a given output must hold: a law's torque (what any allocator reads); other
-        slots' outputs are read by name by the stage after them, which names what it misses."""
-        return ("torque",) if slot == "law" else ()
-
     def _given(self, command) -> dict:
         """slot -> a stage returning the caller's output for this step, the output checked first."""
         if not isinstance(command, dict) or not command:
@@ -239,7 +234,7 @@ class Simulation:
             if not isinstance(output, dict):
                 raise InputError(f"command.{slot}", f"must be a dict of arrays, got {type(output).__name__}")
             key = next((k for k in output if k in actuators), None) if slot == "allocator" else None
-            check = output_check(slot, "given", actuators, key, self._expected_keys(slot), where=f"command.{slot}")
+            check = output_check(slot, "given", actuators, key, where=f"command.{slot}")
             try:
                 check(self.time, output)
             except StageFailed as exc:

@@ -146,6 +146,8 @@ class CmgPlant(Plant):
     """Truth adds gimbal angles and rates, the gimbal-rate command the servos held, rotor
     rates and the cluster momentum H (body frame)."""
 
+    holds_internal_momentum = True
+
     def __init__(self, model, params, control_period: float):
         """`params`: the validated parameters `model` was built from (CmgRhombusParams or
         CmgClusterParams: its servo model and limits, cancel_initial_momentum); `control_period`

@@ -74,6 +74,8 @@ def _quat_x_to(axis: np.ndarray) -> np.ndarray:
 class GyrostatPlant(Plant):
     """Knows the rotor hinge by name; the rotor has no actuator."""
 
+    holds_internal_momentum = True
+
     def __init__(self, model: mujoco.MjModel, params: GyrostatParams):
         super().__init__(FreeBus(model))
         self._rotor_dof = model.joint("rotor").dofadr[0]

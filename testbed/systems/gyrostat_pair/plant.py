@@ -32,6 +32,7 @@ class PairAddresses:
 
 class GyrostatPairPlant(Plant):
     actuators = {"follower_moment_rate": (3,)}
+    holds_internal_momentum = True
 
     def __init__(self, model: mujoco.MjModel, params: GyrostatPairParams):
         super().__init__(PairAddresses(model))
