@@ -5,21 +5,20 @@ from __future__ import annotations
 
 import json
 import sys
-from pathlib import Path
 
 from testbed import api
 from testbed.cli.commands import EXIT_FAILED, EXIT_OK, command, reported
 from testbed.cli.json_stdout import reserved_for_json
 from testbed.cli.progress import advance_to, progress_bar
 from testbed.recording import live_view
-from testbed.recording.output_paths import checked_output, file_stem
+from testbed.recording.output_paths import checked_output, default_output
 
 
 @command("run")
 def add_run_parser(sub) -> None:
     p = sub.add_parser("run", help="run one scenario headless and write its .rrd")
     p.add_argument("scenario", help="scenario file or name in scenarios/")
-    p.add_argument("--out", help="output .rrd (default runs/<scenario>.rrd)")
+    p.add_argument("--out", help="output .rrd (default runs/<scenario file name>.rrd)")
     p.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE",
                      help="override a scenario field (validated like the file)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -43,7 +42,7 @@ def add_check_parser(sub) -> None:
 
 def _run_one(name: str, overrides, out: str | None, show_progress: bool, view: bool = False, connect: str | None = None):
     scenario = api.load(name, overrides)
-    out_path = checked_output(Path("runs") / f"{file_stem(scenario.name)}.rrd" if out is None else out)
+    out_path = default_output(scenario.source, scenario.name, field="trace") if out is None else checked_output(out)
     # the viewer once the scenario and the output path are checked: a refused run opens none
     live = _live_view(view, connect) if view or connect is not None else None
     result = _run_loaded(scenario, out_path, show_progress, live)
@@ -105,8 +104,7 @@ def check(args) -> int:
     with reserved_for_json(args.json):  # a plug-in's prints go to stderr
         scenarios = [api.load(name) for name in names]  # every one valid before any runs
         built = [prepare(scenario) for scenario in scenarios]
-        outs = [checked_output(Path(args.out_dir) / f"{file_stem(Path(n).stem)}.rrd", "--out-dir")
-                for n in names]
+        outs = [default_output(s.source, s.name, args.out_dir, "--out-dir") for s in scenarios]
         show = sys.stderr.isatty() and not args.json
         results = [_run_loaded(scenario, out, show, prepared=parts)
                    for scenario, out, parts in zip(scenarios, outs, built)]

@@ -45,6 +45,8 @@ TIMELINE = "sim_time"
 FOOTER_MAX_SAMPLES = 100_000
 SCALARS = "Scalars:scalars"
 # the stored result of a run until it finishes (TraceWriter): what a trace left by a killed run says
+# the absolute path of the scenario file a run came from: a default output path is not reused by another file
+SOURCE_ENTITY = "run/source"
 UNFINISHED_ERROR = "the run did not finish: this trace holds the chunks written before it stopped"
 
 
@@ -61,7 +63,8 @@ class TraceWriter:
     sample, so that a very long run gives a trace a viewer can open (docs/trace.md "Long runs").
     """
 
-    def __init__(self, rec, scenario_name: str, end_time: float, scene: dict | None = None, envelope_rows: int = 1):
+    def __init__(self, rec, scenario_name: str, end_time: float, scene: dict | None = None, envelope_rows: int = 1,
+                 source: str = ""):
         self.rec, self.end_time, self.scene, self.envelope_rows = rec, end_time, scene, envelope_rows
         self.units = UNITS | (scene or {}).get("units", {})
         self.keys: dict[str, None] = {}  # every signal written, in order
@@ -74,6 +77,8 @@ class TraceWriter:
                       "error": UNFINISHED_ERROR,
                       "metrics": {}, "checks": []}
         self._log_result(unfinished)
+        if source:  # first in the file, so that a later run reads it cheaply (trace_reader.recorded_source)
+            rec.log(SOURCE_ENTITY, rr.TextDocument(str(Path(source).resolve()), media_type="text/plain"), static=True)
         if scene is not None:
             write_scene_static(rec, scene)
         rec.flush()  # from now on the file is a readable, unfinished run, whatever ends the process

@@ -11,7 +11,7 @@ import numpy as np
 
 from testbed.recording.recorder import Trace
 from testbed.recording.rrd_frames import read_whole_frames
-from testbed.recording.trace import RESULT_ENTITY, SCALARS, TIMELINE, UNFINISHED_ERROR
+from testbed.recording.trace import RESULT_ENTITY, SCALARS, SOURCE_ENTITY, TIMELINE, UNFINISHED_ERROR
 
 
 def _chunks(path: Path):
@@ -24,6 +24,22 @@ def _chunks(path: Path):
         warnings.filterwarnings("ignore", message="RRD file has no footer")
         reader = RrdReader(str(path))
     return reader.stream()
+
+
+def recorded_source(path: Path) -> str | None:
+    """The scenario file a trace was run from (absolute path), read from the file's first chunks;
+    None for a trace that records none (a run from a mapping, an older trace) or a file that is
+    not a readable trace."""
+    try:
+        for chunk in _chunks(path):
+            batch = chunk.to_record_batch()
+            if str(chunk.entity_path) == f"/{SOURCE_ENTITY}":
+                return str(batch.column("TextDocument:text")[0].as_py()[0])
+            if TIMELINE in batch.schema.names:
+                return None  # the source is flushed with the run's first static parts, before any sample
+    except Exception:  # a foreign or damaged file names no source
+        return None
+    return None
 
 
 def read_rrd(path: Path, signals: bool = False) -> dict:
