@@ -32,6 +32,7 @@ import rerun as rr
 from testbed.interrupts import signals_held
 from testbed.recording.atomic_file import partial_beside, publish
 from testbed.recording.blueprint import RESULT_ENTITY, UNITS, blueprint, series_names
+from testbed.recording.markdown_table import markdown_table
 from testbed.recording.decimation import block_starts, minmax_decimate
 from testbed.recording.rrd_file import FileStream
 from testbed.recording.orbit_drawing import ORBIT_SIGNAL, write_orbit, write_orbit_static
@@ -210,8 +211,7 @@ def _summary_markdown(result: dict) -> str:
     if result.get("error"):
         lines += [f"error: {result['error']}", ""]
     if result.get("checks"):
-        lines += ["| check | value | limit | passed |", "|---|---|---|---|"]
-        lines += [f"| {c['name']} | {c['value']:.4g} | {c['limit']} | {c['passed']} |" for c in result["checks"]]
-    lines += ["", "| metric | value |", "|---|---|"]
-    lines += [f"| {k} | {v:.6g} |" for k, v in result.get("metrics", {}).items()]
+        lines += markdown_table(["check", "value", "limit", "passed"],
+                                [[c["name"], f"{c['value']:.4g}", c["limit"], c["passed"]] for c in result["checks"]])
+    lines += [""] + markdown_table(["metric", "value"], [[k, f"{v:.6g}"] for k, v in result.get("metrics", {}).items()])
     return "\n".join(lines)
