@@ -142,3 +142,20 @@ def test_each_command_builds_each_plant_and_reads_each_file_once(tmp_path, capsy
     assert main(["check", "gyrostat_free", "torque_free_tumble", "--out-dir", str(tmp_path)]) in (0, 1)
     assert counts["plants"] == 2
     capsys.readouterr()
+
+
+def test_inspect_counts_the_samples_read_gives(tmp_path, capsys):
+    """`testbed inspect` and `testbed.read` count a signal's rows alike: its samples on sim_time
+    that hold a value (the flagship's law has none at t = 0, before its first control step; the
+    static series style is no sample). 2 s at 0.05 s: 41 samples of the truth."""
+    import testbed
+
+    out = tmp_path / "f.rrd"
+    assert main(["run", "lebedev_spinup_cmg", "--set", "sim.duration_s=2", "--out", str(out), "--json"]) in (0, 1)
+    capsys.readouterr()
+    assert main(["inspect", str(out), "--json"]) == 0
+    entities = json.loads(capsys.readouterr().out)["entities"]
+    trace = testbed.read(out).trace
+    signals = [e for e in entities if e.lstrip("/") in trace]
+    assert len(signals) > 20 and entities["/truth/omega"] == 41
+    assert {e: entities[e] for e in signals} == {e: len(trace[e.lstrip("/")][0]) for e in signals}

@@ -43,7 +43,8 @@ def recorded_source(path: Path) -> str | None:
 
 
 def read_rrd(path: Path, signals: bool = False) -> dict:
-    """Read back a run in one pass: entities, time span, the stored result (not recomputed),
+    """Read back a run in one pass: entities (each with its row count: a signal's samples on
+    sim_time that hold a value, as the trace gives them; an entity with no time, its rows), time span, the stored result (not recomputed),
     `cut_bytes` (of a last message cut short, testbed.recording.rrd_frames) and `finished`: False
     for the trace of a run that stopped before its end (killed: its stored result is the
     placeholder, or a message was cut); with `signals`, also "trace": every recorded signal as a
@@ -54,7 +55,8 @@ def read_rrd(path: Path, signals: bool = False) -> dict:
 
 
 def _read_rrd(path: Path, signals: bool) -> dict:
-    entities: dict[str, int] = {}
+    static: dict[str, int] = {}  # rows without a time, per entity
+    timed: dict[str, int] = {}  # rows on sim_time that hold a value, per entity
     parts: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
     t_min, t_max = np.inf, -np.inf
     result = None
@@ -63,14 +65,19 @@ def _read_rrd(path: Path, signals: bool) -> dict:
         if entity.startswith("/__"):
             continue
         batch = chunk.to_record_batch()
-        entities[entity] = entities.get(entity, 0) + batch.num_rows
-        if TIMELINE in batch.schema.names:
+        if TIMELINE not in batch.schema.names:
+            static[entity] = static.get(entity, 0) + batch.num_rows
+        else:
             times = batch.column(TIMELINE).cast("int64").to_numpy()
             if len(times):
                 t_min, t_max = min(t_min, times.min() / 1e9), max(t_max, times.max() / 1e9)
-            if signals and SCALARS in batch.schema.names:
+            rows = batch.num_rows
+            if SCALARS in batch.schema.names:
                 values = batch.column(SCALARS).flatten().to_numpy(zero_copy_only=False).reshape(batch.num_rows, -1)
-                parts.setdefault(entity.lstrip("/"), []).append((times / 1e9, values))
+                rows = int(np.count_nonzero(~np.all(np.isnan(values), axis=1)))  # as `_trace` keeps them
+                if signals:
+                    parts.setdefault(entity.lstrip("/"), []).append((times / 1e9, values))
+            timed[entity] = timed.get(entity, 0) + rows
         if entity == f"/{RESULT_ENTITY}" and batch.num_rows:
             # the last row written: a run that stops before its first flush has its "did not
             # finish" placeholder and its result in one chunk
@@ -78,6 +85,8 @@ def _read_rrd(path: Path, signals: bool) -> dict:
     if result is None:
         raise ValueError(f"{path}: no {RESULT_ENTITY} entity: not a testbed run")
     span = [float(t_min), float(t_max)] if np.isfinite(t_min) else [0.0, 0.0]
+    # a signal counts its samples, as testbed.read gives them; an entity with no time its rows
+    entities = {entity: timed[entity] if entity in timed else static[entity] for entity in {**static, **timed}}
     info = {"entities": entities, "time_span_s": span, "result": result}
     return info | {"trace": _trace(parts)} if signals else info
 
