@@ -159,3 +159,20 @@ def test_inspect_counts_the_samples_read_gives(tmp_path, capsys):
     signals = [e for e in entities if e.lstrip("/") in trace]
     assert len(signals) > 20 and entities["/truth/omega"] == 41
     assert {e: entities[e] for e in signals} == {e: len(trace[e.lstrip("/")][0]) for e in signals}
+
+
+def test_explain_gives_each_metric_its_registered_meaning(tmp_path, capsys):
+    """`--explain`: the first line of each metric's registration beside its value, in the text
+    summary and as `meanings` in --json."""
+    from testbed.metrics import METRICS
+
+    out = tmp_path / "g.rrd"
+    assert main(["run", "gyrostat_free", "--set", "sim.duration_s=1", "--out", str(out), "--explain"]) == 0
+    text = capsys.readouterr().out
+    assert main(SHORT_GYROSTAT + ["--out", str(out), "--explain"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["meanings"] == {name: METRICS[name].doc for name in result["metrics"]}
+    assert result["notes"] == {}
+    for name in result["metrics"]:
+        line = next(l for l in text.splitlines() if l.split()[:1] == [name])
+        assert line.endswith(METRICS[name].doc)

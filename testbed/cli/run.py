@@ -22,6 +22,8 @@ def add_run_parser(sub) -> None:
     p.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE",
                      help="override a scenario field (validated like the file)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--explain", action="store_true",
+                   help="give each metric's one-line meaning beside its value (JSON: a 'meanings' object)")
     live = p.add_mutually_exclusive_group()
     live.add_argument("--view", action="store_true",
                       help="spawn the Rerun viewer and stream the run to it as it goes (the .rrd is written too)")
@@ -68,14 +70,30 @@ def _run_loaded(scenario, out, show_progress: bool, live=None, prepared=None):
                        keep_trace=False, live=live, prepared=prepared)
 
 
-def _print_summary(result) -> None:
+def _print_summary(result, explain: bool = False) -> None:
+    """The run's status, each metric (with `explain` its meaning beside it), a note for each
+    metric whose value looks alarming by design (testbed.metrics `caveats`), the checks."""
+    from testbed.metrics import caveats, meaning
+
     print(f"scenario {result.scenario}: {result.status}, {result.sim_s:g} s simulated in {result.wall_s:.2f} s")
     if result.error:
         print(f"error: {result.error}")
     for name, value in result.metrics.items():
-        print(f"  {name:32s} {value:.6g}")
+        print(f"  {name:32s} {value:<12.6g}" + (f" {meaning(name)}" if explain else "").rstrip())
+    for name, caveat in caveats(result.metrics).items():
+        print(f"note: {name} = {result.metrics[name]:.3g}: {caveat}")
     print_checks([(result.scenario, c) for c in result.checks])
     print(f"trace: {result.rrd}")
+
+
+def _explained_json(result, explain: bool) -> dict:
+    """`--json`'s object; with `explain`, also `meanings` and `notes` (name -> text)."""
+    from testbed.metrics import caveats, meaning
+
+    out = result.as_json()
+    if explain:
+        out |= {"meanings": {name: meaning(name) for name in result.metrics}, "notes": caveats(result.metrics)}
+    return out
 
 
 def print_checks(rows) -> None:
@@ -93,7 +111,8 @@ def run(args) -> int:
     with reserved_for_json(args.json):  # a plug-in's prints go to stderr
         result = _run_one(args.scenario, args.set, args.out, tty, args.view, args.connect)
     return reported(EXIT_OK if result.passed else EXIT_FAILED,
-                    lambda: print(json.dumps(result.as_json())) if args.json else _print_summary(result))
+                    lambda: print(json.dumps(_explained_json(result, args.explain))) if args.json
+                    else _print_summary(result, args.explain))
 
 
 def check(args) -> int:

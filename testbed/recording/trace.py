@@ -207,11 +207,17 @@ def recording_to(path, application: str = APP_ID, live=None, footer: bool = True
 
 
 def _summary_markdown(result: dict) -> str:
+    """The result pane: status, checks, and each metric with its one-line meaning and, where its
+    value looks alarming by design, the note saying why (testbed.metrics)."""
+    from testbed.metrics import caveats, meaning  # the metric registry sits above the recording
+
     lines = [f"# {result.get('scenario', '')}", "", f"status: **{result.get('status', '')}**", ""]
     if result.get("error"):
         lines += [f"error: {result['error']}", ""]
     if result.get("checks"):
         lines += markdown_table(["check", "value", "limit", "passed"],
                                 [[c["name"], f"{c['value']:.4g}", c["limit"], c["passed"]] for c in result["checks"]])
-    lines += [""] + markdown_table(["metric", "value"], [[k, f"{v:.6g}"] for k, v in result.get("metrics", {}).items()])
+    values = result.get("metrics", {})
+    lines += [""] + markdown_table(["metric", "value", "meaning"], [[k, f"{v:.6g}", meaning(k)] for k, v in values.items()])
+    lines += [f"\n**{name}**: {caveat}" for name, caveat in caveats(values).items()]
     return "\n".join(lines)

@@ -34,7 +34,8 @@ MAX_DT_OVER_ROTOR_TAU = 0.5
 
 @dataclass(kw_only=True)
 class CmgRhombusParams:
-    """The bus plus four single-gimbal CMGs in the rhombus layout (SEEDS §004).
+    """The bus plus four single-gimbal CMGs in the rhombus layout of the redundant-gyrodyne
+    reorientation paper (docs/theory/papers.md).
 
     inertia_kg_m2: principal inertia of the bus alone about its CoM; the system inertia also
         contains the CMG masses at cmg_distance_m and their own inertias.
