@@ -176,3 +176,44 @@ def test_explain_gives_each_metric_its_registered_meaning(tmp_path, capsys):
     for name in result["metrics"]:
         line = next(l for l in text.splitlines() if l.split()[:1] == [name])
         assert line.endswith(METRICS[name].doc)
+
+
+def test_building_notice_shows_after_its_delay_and_completes_with_the_time():
+    """The line appears only once building has taken `after_s`, and ends with its duration."""
+    import io
+    import time
+
+    from testbed.cli.progress import building_notice
+
+    quick, slow, hidden = io.StringIO(), io.StringIO(), io.StringIO()
+    with building_notice("x", True, after_s=0.5, stream=quick):
+        pass
+    with building_notice("big", True, after_s=0.05, stream=slow):
+        time.sleep(0.3)
+    with building_notice("big", False, after_s=0.0, stream=hidden):
+        time.sleep(0.1)
+    assert quick.getvalue() == "" and hidden.getvalue() == ""
+    line = slow.getvalue()
+    assert line.startswith("building big (model, pipeline, reference) ...") and line.endswith(" s\n")
+    assert float(line.split("...")[1].split()[0]) >= 0.3 - 0.05
+
+
+def test_a_run_that_builds_slowly_says_so_on_a_terminal(tmp_path, monkeypatch, capsys):
+    """`testbed run` on a terminal: building (here made to take 1.3 s) shows the line after
+    BUILD_NOTICE_S = 1 s; the run then goes on as ever."""
+    import time
+
+    import testbed.runner
+    from testbed.cli import progress
+
+    real = testbed.runner.prepare
+
+    def slow(*args, **kwargs):
+        time.sleep(progress.BUILD_NOTICE_S + 0.3)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(testbed.runner, "prepare", slow)
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
+    assert main(["run", "gyrostat_free", "--set", "sim.duration_s=0.5", "--out", str(tmp_path / "g.rrd")]) == 0
+    err = capsys.readouterr().err
+    assert "building gyrostat_free (model, pipeline, reference) ..." in err

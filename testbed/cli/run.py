@@ -9,7 +9,7 @@ import sys
 from testbed import api
 from testbed.cli.commands import EXIT_FAILED, EXIT_OK, command, reported
 from testbed.cli.json_stdout import reserved_for_json
-from testbed.cli.progress import advance_to, progress_bar
+from testbed.cli.progress import advance_to, building_notice, progress_bar
 from testbed.recording import live_view
 from testbed.recording.output_paths import checked_output, default_output
 
@@ -43,11 +43,15 @@ def add_check_parser(sub) -> None:
 
 
 def _run_one(name: str, overrides, out: str | None, show_progress: bool, view: bool = False, connect: str | None = None):
-    scenario = api.load(name, overrides)
-    out_path = default_output(scenario.source, scenario.name, field="trace") if out is None else checked_output(out)
+    from testbed.runner import prepare
+
+    with building_notice(str(name), show_progress):
+        scenario = api.load(name, overrides)
+        out_path = default_output(scenario.source, scenario.name, field="trace") if out is None else checked_output(out)
+        parts = prepare(scenario)
     # the viewer once the scenario and the output path are checked: a refused run opens none
     live = _live_view(view, connect) if view or connect is not None else None
-    result = _run_loaded(scenario, out_path, show_progress, live)
+    result = _run_loaded(scenario, out_path, show_progress, live, prepared=parts)
     if live is not None and not live.complete:
         print(f"note: the viewer at {live.url} did not take the whole run within {live_view.CLOSE_S:g} s; "
               f"the trace file holds it", file=sys.stderr)
