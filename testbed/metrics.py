@@ -2,7 +2,10 @@
 
 A metric registers with `@metric(name, applies)`, where `applies(scenario)` says whether
 the metric exists for that scenario; a check naming a metric that does not exist is bad
-input, caught before the run.
+input, caught before the run. The first line of its docstring is its one-line meaning
+(`testbed describe metric NAME`, `testbed run --explain`); a metric whose value can look
+alarming in a run that works as designed registers a `caveat` saying why, and `caveat_when`
+(the run's metric values -> bool) says when the run's summary should print it.
 """
 
 from __future__ import annotations
@@ -27,6 +30,8 @@ class Metric:
     applies: Callable
     compute: Callable
     uses: tuple | Callable | None = None  # what it reads (see `metric`); None: everything
+    caveat: str = ""                        # why a value that looks alarming can be by design
+    caveat_when: Callable | None = None     # metric values -> whether a run's value calls for the caveat
 
     def used_by(self, scenario) -> tuple | None:
         """The signal keys and reductions the metric reads in `scenario` (None: every signal)."""
@@ -36,8 +41,11 @@ class Metric:
 METRICS = Registry("metric")
 
 
-def metric(name: str, applies: Callable = lambda scenario: True, uses=None):
-    """Register `fn(run) -> float` as metric `name` (docstring = its definition).
+def metric(name: str, applies: Callable = lambda scenario: True, uses=None, caveat: str = "",
+           caveat_when: Callable | None = None):
+    """Register `fn(run) -> float` as metric `name` (docstring = its definition; its first line
+    the one-line meaning), with an optional `caveat` printed beside a value for which
+    `caveat_when(values)` holds (values: the run's metrics by name; see the module doc).
 
     `uses` says what the metric reads, so that a run keeps no more than that: signal keys whose
     whole history it reads as `run.recorder[key]` (with `run.recorder.time`), and running
@@ -49,11 +57,22 @@ def metric(name: str, applies: Callable = lambda scenario: True, uses=None):
 
     def register(fn):
         declared = uses if uses is None or callable(uses) else tuple(uses)
-        METRICS.add(name, Metric(name, (fn.__doc__ or "").strip().splitlines()[0], applies, fn, declared),
-                    fn.__module__)
+        METRICS.add(name, Metric(name, (fn.__doc__ or "").strip().splitlines()[0], applies, fn, declared,
+                                 caveat, caveat_when), fn.__module__)
         return fn
 
     return register
+
+
+def meaning(name: str) -> str:
+    """The one-line meaning of metric `name` ("" for a name no metric has, e.g. a plug-in's gone)."""
+    return METRICS[name].doc if name in METRICS else ""
+
+
+def caveats(values: dict[str, float]) -> dict[str, str]:
+    """name -> caveat of each metric in `values` whose value calls for it (its `caveat_when`)."""
+    return {name: METRICS[name].caveat for name in values
+            if name in METRICS and METRICS[name].caveat_when is not None and METRICS[name].caveat_when(values)}
 
 
 def available(scenario) -> list[str]:

@@ -230,7 +230,7 @@ class RunInProgress:
                if out is not None or live is not None else None)
         try:
             self.writer = trace.TraceWriter(rec, scenario.name, self.n_ticks * sim.control_period_s, plant.scene(),
-                                            envelope_rows=sim.envelope_rows) if rec else None
+                                            envelope_rows=sim.envelope_rows, source=scenario.source) if rec else None
         except BaseException as exc:  # no run: its partial file goes (recording_to)
             if not self._context.__exit__(type(exc), exc, exc.__traceback__):
                 raise

@@ -163,3 +163,76 @@ def test_a_limit_is_printed_exactly():
 
     assert CheckLimit(max=1.0).text == "<= 1"
     assert CheckLimit(max=1.0000001, min=-2.5).text == "<= 1.0000001 and >= -2.5"  # :g read 1
+def test_inspect_counts_the_samples_read_gives(tmp_path, capsys):
+    """`testbed inspect` and `testbed.read` count a signal's rows alike: its samples on sim_time
+    that hold a value (the flagship's law has none at t = 0, before its first control step; the
+    static series style is no sample). 2 s at 0.05 s: 41 samples of the truth."""
+    import testbed
+
+    out = tmp_path / "f.rrd"
+    assert main(["run", "lebedev_spinup_cmg", "--set", "sim.duration_s=2", "--out", str(out), "--json"]) in (0, 1)
+    capsys.readouterr()
+    assert main(["inspect", str(out), "--json"]) == 0
+    entities = json.loads(capsys.readouterr().out)["entities"]
+    trace = testbed.read(out).trace
+    signals = [e for e in entities if e.lstrip("/") in trace]
+    assert len(signals) > 20 and entities["/truth/omega"] == 41
+    assert {e: entities[e] for e in signals} == {e: len(trace[e.lstrip("/")][0]) for e in signals}
+
+
+def test_explain_gives_each_metric_its_registered_meaning(tmp_path, capsys):
+    """`--explain`: the first line of each metric's registration beside its value, in the text
+    summary and as `meanings` in --json."""
+    from testbed.metrics import METRICS
+
+    out = tmp_path / "g.rrd"
+    assert main(["run", "gyrostat_free", "--set", "sim.duration_s=1", "--out", str(out), "--explain"]) == 0
+    text = capsys.readouterr().out
+    assert main(SHORT_GYROSTAT + ["--out", str(out), "--explain"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["meanings"] == {name: METRICS[name].doc for name in result["metrics"]}
+    assert result["notes"] == {}
+    for name in result["metrics"]:
+        line = next(l for l in text.splitlines() if l.split()[:1] == [name])
+        assert line.endswith(METRICS[name].doc)
+
+
+def test_building_notice_shows_after_its_delay_and_completes_with_the_time():
+    """The line appears only once building has taken `after_s`, and ends with its duration."""
+    import io
+    import time
+
+    from testbed.cli.progress import building_notice
+
+    quick, slow, hidden = io.StringIO(), io.StringIO(), io.StringIO()
+    with building_notice("x", True, after_s=0.5, stream=quick):
+        pass
+    with building_notice("big", True, after_s=0.05, stream=slow):
+        time.sleep(0.3)
+    with building_notice("big", False, after_s=0.0, stream=hidden):
+        time.sleep(0.1)
+    assert quick.getvalue() == "" and hidden.getvalue() == ""
+    line = slow.getvalue()
+    assert line.startswith("building big (model, pipeline, reference) ...") and line.endswith(" s\n")
+    assert float(line.split("...")[1].split()[0]) >= 0.3 - 0.05
+
+
+def test_a_run_that_builds_slowly_says_so_on_a_terminal(tmp_path, monkeypatch, capsys):
+    """`testbed run` on a terminal: building (here made to take 1.3 s) shows the line after
+    BUILD_NOTICE_S = 1 s; the run then goes on as ever."""
+    import time
+
+    import testbed.runner
+    from testbed.cli import progress
+
+    real = testbed.runner.prepare
+
+    def slow(*args, **kwargs):
+        time.sleep(progress.BUILD_NOTICE_S + 0.3)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(testbed.runner, "prepare", slow)
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
+    assert main(["run", "gyrostat_free", "--set", "sim.duration_s=0.5", "--out", str(tmp_path / "g.rrd")]) == 0
+    err = capsys.readouterr().err
+    assert "building gyrostat_free (model, pipeline, reference) ..." in err

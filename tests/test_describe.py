@@ -118,3 +118,34 @@ def test_an_unknown_kind_or_name_is_bad_input(argv, field, capfd):
     assert main(argv) == 2
     out, err = capfd.readouterr()
     assert out == "" and len(err.splitlines()) == 1 and err.startswith(f"error: {field}: ")
+
+
+def test_user_text_names_no_internal_reference(capsys):
+    """What `describe` and `list` print names papers and docs pages, never the maintainers'
+    notes ("SEEDS §004", "seed 003")."""
+    assert main(["describe", "--json"]) == 0
+    described = capsys.readouterr().out
+    assert main(["list"]) == 0
+    listed = capsys.readouterr().out
+    for text in (described, listed):
+        assert not re.search(r"SEEDS|§|\bseed 0\d\d", text), re.search(r".{60}(SEEDS|§|seed 0\d\d).{20}", text)
+
+
+def test_a_metric_alarming_by_design_says_so_and_when():
+    """min_scale and torque_error_rel of a rate-limited run (the flagship: 0.0446 and 0.833)
+    carry their caveat; a run the limit never scaled does not print it."""
+    from testbed.metrics import METRICS, caveats, meaning
+
+    flagship = {"min_scale": 0.0446, "torque_error_rel": 0.833, "momentum_drift_rel": 1e-10}
+    assert set(caveats(flagship)) == {"min_scale", "torque_error_rel"}
+    assert caveats({"min_scale": 1.0, "torque_error_rel": 0.2}) == {}
+    assert "direction" in caveats(flagship)["min_scale"] and "min_scale < 1" in caveats(flagship)["torque_error_rel"]
+    assert meaning("torque_error_rel") == METRICS["torque_error_rel"].doc != ""
+
+
+def test_describe_metric_gives_the_meaning_and_the_caveat(capsys):
+    from testbed.metrics import METRICS
+
+    assert main(["describe", "metric", "torque_error_rel"]) == 0
+    shown = capsys.readouterr().out
+    assert METRICS["torque_error_rel"].doc in shown and METRICS["torque_error_rel"].caveat in shown

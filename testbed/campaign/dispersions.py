@@ -27,7 +27,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 from testbed.scenario import schema
 from testbed.errors import InputError
@@ -119,6 +118,7 @@ class Dispersion:
             x = rng.normal(values[0], values[1], count)
         elif kind == "truncated_normal":
             mean, sigma, low, high = values
+            from scipy import stats  # on use: at the top it would cost every command start-up time
             x = stats.truncnorm.rvs((low - mean) / sigma, (high - mean) / sigma, loc=mean, scale=sigma,
                                     size=count, random_state=rng)
         elif kind == "uniform":

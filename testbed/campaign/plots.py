@@ -1,20 +1,20 @@
 """A campaign's summary trace, DIR/summary/summary.rrd: it opens on a histogram of every metric, and
 has one tab per metric with its scatter plot against every dispersed parameter, so a
-sensitivity shows at a glance; the summary (pass rate, spreads, worst cases) beside them.
+sensitivity shows at a glance; the summary (pass rate, spreads, worst cases) as tables beside them.
 
 Rerun plots scalars against a timeline, not against another scalar, so each scatter plot puts
-the parameter on a timeline of its own kind, `dispersed value` (a duration, which Rerun labels
-in seconds): x = value / 10^k with k chosen per parameter so that |x| < 10 (the view's title
-gives 10^k), and a text parameter (a choice) by the index of its value (the title lists them).
-The time panel opens on that timeline. Passed cases are green points, failed ones red.
+the parameter on a sequence timeline of its kind, TIMELINE: x = round(value / 10^(k - 3)), k
+chosen per parameter so that |value| / 10^k < 10 (four significant digits; the view's title
+gives the unit and 10^(k - 3)), and a text parameter (a choice) by the index of its value (the
+title lists them). The time panel opens on that timeline. Passed cases are green points, failed ones red. Every
+view's title gives the units of its axes.
 
 Entities: `histogram/<metric>` (BarChart: counts, bin centres as abscissa, bin widths),
-`scatter/<metric>/<parameter>/passed|failed` (Scalars with SeriesPoints), `summary` (text).
+`scatter/<metric>/<parameter>/passed|failed` (Scalars with SeriesPoints), `summary` (markdown).
 """
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -22,15 +22,31 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from testbed.campaign.summary_markdown import summary_markdown, unit_text
 from testbed.recording.trace import recording_to
 
-TIMELINE = "dispersed value"
+TIMELINE = "parameter (scale in each plot's title)"
 GREEN, RED = [40, 170, 70], [220, 50, 50]
+DIGITS = 4  # significant digits of a scatter plot's x
+ROUND_OFF_ULPS = 8  # values this close are one value to the histogram (a sum in another order)
+MAX_BINS = 40
 
 
 def histogram(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(counts, bin centres, bin widths) of the finite values: numpy's 'auto' bins, at most 40."""
-    counts, edges = np.histogram(values, bins=min(len(np.histogram_bin_edges(values, "auto")) - 1, 40) or 1)
+    """(counts, bin centres, bin widths) of the finite values: numpy's 'auto' bins, at most
+    MAX_BINS and each at least ROUND_OFF_ULPS / 2 wide. Values within ROUND_OFF_ULPS of each other
+    (all equal, or apart by round-off) are one bar at their midpoint, a tenth of its magnitude wide
+    (1 for zero), so that the axis is centred on it."""
+    low, high = float(values.min()), float(values.max())
+    floor = ROUND_OFF_ULPS * float(np.spacing(max(abs(low), abs(high))))
+    if high - low <= floor:
+        centre = low + (high - low) / 2
+        return np.array([len(values)]), np.array([centre]), np.array([0.1 * abs(centre) or 1.0])
+    # the bin count of the values mapped onto [0, 1] (numpy's estimators do not depend on scale or
+    # offset), so that a span of a few ulps cannot make numpy's own edges collide
+    auto = len(np.histogram_bin_edges((values - low) / (high - low), "auto")) - 1
+    bins = max(1, min(auto, MAX_BINS, int((high - low) / (floor / 2))))
+    counts, edges = np.histogram(values, bins=bins, range=(low, high))
     return counts, (edges[:-1] + edges[1:]) / 2, np.diff(edges)
 
 
@@ -40,19 +56,24 @@ def axis_scale(values) -> int:
     return int(math.floor(math.log10(peak))) if peak > 0 else 0
 
 
-def parameter_axis(cells: list) -> tuple[list, str]:
-    """(x per case, label suffix) of a parameter column: numbers scaled by 10^-k, text by the
-    index of its value in order of appearance."""
+def parameter_axis(parameter: str, cells: list) -> tuple[list, str]:
+    """(x per case, its label: the parameter, unit and scale) of a parameter column: numbers as
+    integers value / 10^(k - DIGITS + 1) (integers as they are), text by the index of its value
+    in order of appearance (listed in the label)."""
     if all(isinstance(c, (int, float)) and not isinstance(c, bool) or c is None for c in cells):
-        k = axis_scale([c for c in cells if c is not None and math.isfinite(c)])
-        return [None if c is None else c / 10.0**k for c in cells], (f" [x 1e{k}]" if k else "")
+        finite = [c for c in cells if c is not None and math.isfinite(c)]
+        shift = axis_scale(finite) - DIGITS + 1 if any(c != round(c) for c in finite) else 0
+        scale = f" x 1e{shift}" if shift else ""
+        x = [None if c is None or not math.isfinite(c) else round(c / 10.0**shift) for c in cells]
+        return x, f"{parameter} [{unit_text(parameter)}{scale}]"
     labels = list(dict.fromkeys(str(c) for c in cells))
-    return [labels.index(str(c)) for c in cells], " [" + ", ".join(f"{i} = {v}" for i, v in enumerate(labels)) + "]"
+    return [labels.index(str(c)) for c in cells], f"{parameter} (" + ", ".join(f"{i} = {v}" for i, v in enumerate(labels)) + ")"
 
 
 def write_summary_rrd(path: Path, rows: list[dict], metric_names: list[str], parameters: list[str],
                       summary: dict) -> Path:
     """Write the summary trace of a campaign's `rows` (see module doc) atomically to `path`."""
+
     histograms, tabs = [], []
     with recording_to(path) as rec:
         for metric in metric_names:
@@ -63,11 +84,11 @@ def write_summary_rrd(path: Path, rows: list[dict], metric_names: list[str], par
             counts, centres, widths = histogram(y[finite])
             entity = f"histogram/{_part(metric)}"
             rec.log(entity, rr.BarChart(counts, abscissa=centres, widths=widths), static=True)
-            histograms.append(rrb.BarChartView(origin=entity, name=metric))
+            histograms.append(rrb.BarChartView(origin=entity, name=f"{metric} [{unit_text(metric)}]: cases a bin"))
             views = []
             for parameter in parameters:
-                x, suffix = parameter_axis([r.get(parameter) for r in rows])
-                keep = [i for i in range(len(rows)) if finite[i] and x[i] is not None and math.isfinite(x[i])]
+                x, label = parameter_axis(parameter, [r.get(parameter) for r in rows])
+                keep = [i for i in range(len(rows)) if finite[i] and x[i] is not None]
                 if not keep:
                     continue
                 origin = f"scatter/{_part(metric)}/{_part(parameter)}"
@@ -77,22 +98,21 @@ def write_summary_rrd(path: Path, rows: list[dict], metric_names: list[str], par
                         rec.log(f"{origin}/{outcome}", rr.SeriesPoints(colors=[color], names=[outcome],
                                                                        marker_sizes=[3.0]), static=True)
                         rec.send_columns(f"{origin}/{outcome}",
-                                         indexes=[rr.TimeColumn(TIMELINE, duration=[x[i] for i in chosen])],
+                                         indexes=[rr.TimeColumn(TIMELINE, sequence=[x[i] for i in chosen])],
                                          columns=rr.Scalars.columns(scalars=y[chosen]))
                 low, high = min(x[i] for i in keep), max(x[i] for i in keep)
-                pad = 0.05 * (high - low) or 0.5
-                axis = rrb.TimeAxis(view_range=rrb.TimeRange(
-                    start=rrb.TimeRangeBoundary.absolute(seconds=low - pad),
-                    end=rrb.TimeRangeBoundary.absolute(seconds=high + pad)))
-                views.append(rrb.TimeSeriesView(origin=origin, name=f"{metric} vs {parameter}{suffix}", axis_x=axis,
+                pad = max(1, round(0.05 * (high - low)))
+                axis = rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.absolute(seq=low - pad),
+                                                             end=rrb.TimeRangeBoundary.absolute(seq=high + pad)))
+                views.append(rrb.TimeSeriesView(origin=origin, name=f"{metric} [{unit_text(metric)}] vs {label}", axis_x=axis,
                                                 plot_legend=rrb.PlotLegend(rrb.Corner2D.RightTop)))
             if views:
                 tabs.append(rrb.Grid(*views, name=f"{metric} vs parameters"))
-        rec.log("summary", rr.TextDocument(json.dumps(summary, indent=1), media_type="text/plain"), static=True)
+        rec.log("summary", rr.TextDocument(summary_markdown(summary), media_type="text/markdown"), static=True)
         first = rrb.Grid(*histograms, name="histograms") if histograms else rrb.TextDocumentView(origin="/summary")
         rec.send_blueprint(rrb.Blueprint(
             rrb.Horizontal(rrb.Tabs(first, *tabs), rrb.TextDocumentView(origin="/summary", name="summary"),
-                           column_shares=[4, 1]),
+                           column_shares=[3, 2]),
             rrb.TimePanel(timeline=TIMELINE, state="collapsed"),
             rrb.BlueprintPanel(state="collapsed"), rrb.SelectionPanel(state="collapsed")))
     return Path(path)

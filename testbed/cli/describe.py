@@ -95,7 +95,8 @@ def entries(kind: str | None = None, name: str | None = None, builtin_only: bool
                               "parameters": _parameters(params_cls)})
     if kind in (None, "metric"):
         for key, entry in _by_name(METRICS):
-            found.append({"kind": "metric", "name": key, "module": entry.compute.__module__, "doc": entry.doc,
+            doc = f"{entry.doc} Note: {entry.caveat}" if entry.caveat else entry.doc
+            found.append({"kind": "metric", "name": key, "module": entry.compute.__module__, "doc": doc,
                           "parameters": []})
     if kind in (None, "reference"):
         for key, entry in _by_name(REFERENCES):

@@ -5,25 +5,26 @@ from __future__ import annotations
 
 import json
 import sys
-from pathlib import Path
 
 from testbed import api
 from testbed.metrics import value_text
 from testbed.cli.commands import EXIT_FAILED, EXIT_OK, command, reported
 from testbed.cli.json_stdout import reserved_for_json
-from testbed.cli.progress import advance_to, progress_bar
+from testbed.cli.progress import advance_to, building_notice, progress_bar
 from testbed.recording import live_view
-from testbed.recording.output_paths import checked_output, file_stem
+from testbed.recording.output_paths import checked_output, default_output
 
 
 @command("run")
 def add_run_parser(sub) -> None:
     p = sub.add_parser("run", help="run one scenario headless and write its .rrd")
     p.add_argument("scenario", help="scenario file or name in scenarios/")
-    p.add_argument("--out", help="output .rrd (default runs/<scenario>.rrd)")
+    p.add_argument("--out", help="output .rrd (default runs/<scenario file name>.rrd)")
     p.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE",
                      help="override a scenario field (validated like the file)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--explain", action="store_true",
+                   help="give each metric's one-line meaning beside its value (JSON: a 'meanings' object)")
     live = p.add_mutually_exclusive_group()
     live.add_argument("--view", action="store_true",
                       help="spawn the Rerun viewer and stream the run to it as it goes (the .rrd is written too)")
@@ -43,11 +44,15 @@ def add_check_parser(sub) -> None:
 
 
 def _run_one(name: str, overrides, out: str | None, show_progress: bool, view: bool = False, connect: str | None = None):
-    scenario = api.load(name, overrides)
-    out_path = checked_output(Path("runs") / f"{file_stem(scenario.name)}.rrd" if out is None else out)
+    from testbed.runner import prepare
+
+    with building_notice(str(name), show_progress):
+        scenario = api.load(name, overrides)
+        out_path = default_output(scenario.source, scenario.name, field="trace") if out is None else checked_output(out)
+        parts = prepare(scenario)
     # the viewer once the scenario and the output path are checked: a refused run opens none
     live = _live_view(view, connect) if view or connect is not None else None
-    result = _run_loaded(scenario, out_path, show_progress, live)
+    result = _run_loaded(scenario, out_path, show_progress, live, prepared=parts)
     if live is not None and not live.complete:
         print(f"note: the viewer at {live.url} did not take the whole run within {live_view.CLOSE_S:g} s; "
               f"the trace file holds it", file=sys.stderr)
@@ -70,14 +75,30 @@ def _run_loaded(scenario, out, show_progress: bool, live=None, prepared=None):
                        keep_trace=False, live=live, prepared=prepared)
 
 
-def _print_summary(result) -> None:
+def _print_summary(result, explain: bool = False) -> None:
+    """The run's status, each metric (with `explain` its meaning beside it), a note for each
+    metric whose value looks alarming by design (testbed.metrics `caveats`), the checks."""
+    from testbed.metrics import caveats, meaning
+
     print(f"scenario {result.scenario}: {result.status}, {result.sim_s:g} s simulated in {result.wall_s:.2f} s")
     if result.error:
         print(f"error: {result.error}")
     for name, value in result.metrics.items():
-        print(f"  {name:32s} {value:.6g}")
+        print(f"  {name:32s} {value:<12.6g}" + (f" {meaning(name)}" if explain else "").rstrip())
+    for name, caveat in caveats(result.metrics).items():
+        print(f"note: {name} = {result.metrics[name]:.3g}: {caveat}")
     print_checks([(result.scenario, c) for c in result.checks])
     print(f"trace: {result.rrd}")
+
+
+def _explained_json(result, explain: bool) -> dict:
+    """`--json`'s object; with `explain`, also `meanings` and `notes` (name -> text)."""
+    from testbed.metrics import caveats, meaning
+
+    out = result.as_json()
+    if explain:
+        out |= {"meanings": {name: meaning(name) for name in result.metrics}, "notes": caveats(result.metrics)}
+    return out
 
 
 def print_checks(rows) -> None:
@@ -96,7 +117,8 @@ def run(args) -> int:
     with reserved_for_json(args.json):  # a plug-in's prints go to stderr
         result = _run_one(args.scenario, args.set, args.out, tty, args.view, args.connect)
     return reported(EXIT_OK if result.passed else EXIT_FAILED,
-                    lambda: print(json.dumps(result.as_json())) if args.json else _print_summary(result))
+                    lambda: print(json.dumps(_explained_json(result, args.explain))) if args.json
+                    else _print_summary(result, args.explain))
 
 
 def check(args) -> int:
@@ -107,8 +129,7 @@ def check(args) -> int:
     with reserved_for_json(args.json):  # a plug-in's prints go to stderr
         scenarios = [api.load(name) for name in names]  # every one valid before any runs
         built = [prepare(scenario) for scenario in scenarios]
-        outs = [checked_output(Path(args.out_dir) / f"{file_stem(Path(n).stem)}.rrd", "--out-dir")
-                for n in names]
+        outs = [default_output(s.source, s.name, args.out_dir, "--out-dir") for s in scenarios]
         show = sys.stderr.isatty() and not args.json
         results = [_run_loaded(scenario, out, show, prepared=parts)
                    for scenario, out, parts in zip(scenarios, outs, built)]

@@ -23,7 +23,6 @@ observer's information matrix Pi beside z).
 from __future__ import annotations
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from testbed.math.cross import cross3
 
@@ -100,6 +99,7 @@ def closed_loop_states(observer, gains, startup_s: float, omega0, momentum0, tim
             (min(startup_s, t_end), t_end, closed_loop, times >= startup_s))
     for t0, t1, rhs, mask in legs:
         if t1 > t0:
+            from scipy.integrate import solve_ivp  # on use: at the top it would cost every command start-up time
             sol = solve_ivp(counted(rhs), (t0, t1), state, method="DOP853", rtol=RTOL, atol=ATOL_RAD_S * scale,
                             dense_output=True)
             if not sol.success:

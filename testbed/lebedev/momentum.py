@@ -31,8 +31,6 @@ those circles (`end_state_information`); the measured tilts are in docs/theory/l
 from __future__ import annotations
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.linalg import solve_continuous_lyapunov
 
 from testbed.errors import InputError
 from testbed.math.information_filter import information_rate
@@ -146,12 +144,14 @@ def end_state_information(inertia, spin_rate, sensor_axis, total_momentum, decay
 
     def steady(matrix):
         shifted = matrix + decay * np.eye(3)
+        from scipy.linalg import solve_continuous_lyapunov  # on use: at the top it would cost every command start-up time
         return solve_continuous_lyapunov(shifted.T, np.outer(c, c))
 
     turn = 2 * np.pi / abs(spin_rate)
     rhs = lambda t, p: information_rate(jacobian(t), p.reshape(3, 3), decay, c).ravel()  # noqa: E731
     times = np.linspace(turn, 2 * turn, samples)
     with np.errstate(under="ignore"):   # the step-size control's nextafter near 0 (harmless)
+        from scipy.integrate import solve_ivp  # on use: at the top it would cost every command start-up time
         settle = solve_ivp(rhs, (0.0, turn), steady(jacobian(0.0)).ravel(), rtol=1e-8, atol=1e-12 * size)
         sol = solve_ivp(rhs, (turn, 2 * turn), settle.y[:, -1], rtol=1e-8, atol=1e-12 * size, t_eval=times)
     least = min(np.linalg.eigvalsh(p.reshape(3, 3))[0] for p in sol.y.T)
@@ -170,6 +170,7 @@ def idle_polar_angles(inertia, momentum, omega0, duration: float) -> np.ndarray:
     if duration > 0.0:  # (no start-up: L where it starts)
         times = np.linspace(0.0, duration, max(2, int(duration) + 1))
         with np.errstate(under="ignore"):
+            from scipy.integrate import solve_ivp
             rates = solve_ivp(lambda t, w: -np.cross(w, inertia * w + held) / inertia, (0.0, duration),
                               rates[:, 0], method="DOP853", rtol=1e-9, atol=1e-15, t_eval=times).y
     L = inertia[:, None] * rates + held[:, None]

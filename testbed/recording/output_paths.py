@@ -22,6 +22,22 @@ def file_stem(name: str) -> str:
     return stem.replace("..", "_")[:100] or "run"
 
 
+def default_output(source: str, name: str, folder: str | Path = "runs", field: str = "--out") -> "CheckedPath":
+    """The trace path of a run given no --out: `folder/<scenario file stem>.rrd` (`name`, the
+    scenario's name, when it has no file), checked like `checked_output`. A trace there that
+    records another scenario file is refused, never replaced: two files of one stem in different
+    folders (or a copy named like its original) would otherwise overwrite each other's traces."""
+    path = checked_output(Path(folder) / f"{file_stem(Path(source).stem if source else name)}.rrd", field)
+    if source and path.path.is_file():
+        from testbed.recording.trace_reader import recorded_source
+
+        held = recorded_source(path.path)
+        if held is not None and Path(held) != Path(source).resolve():
+            raise InputError(field, f"{quoted(str(path.path))} holds the trace of another scenario file, "
+                                    f"{quoted(held)}; give --out, or move that trace away")
+    return path
+
+
 @dataclass(frozen=True)
 class CheckedPath:
     """A trace path `output_path` has checked (`checked_output`), handed down to a run

@@ -33,6 +33,7 @@ from testbed.interrupts import signals_held
 from testbed.metrics import value_text
 from testbed.recording.atomic_file import partial_beside, publish
 from testbed.recording.blueprint import RESULT_ENTITY, UNITS, blueprint, series_names
+from testbed.recording.markdown_table import markdown_table
 from testbed.recording.decimation import block_starts, minmax_decimate
 from testbed.recording.rrd_file import FileStream
 from testbed.recording.orbit_drawing import ORBIT_SIGNAL, write_orbit, write_orbit_static
@@ -46,6 +47,8 @@ TIMELINE = "sim_time"
 FOOTER_MAX_SAMPLES = 100_000
 SCALARS = "Scalars:scalars"
 # the stored result of a run until it finishes (TraceWriter): what a trace left by a killed run says
+# the absolute path of the scenario file a run came from: a default output path is not reused by another file
+SOURCE_ENTITY = "run/source"
 UNFINISHED_ERROR = "the run did not finish: this trace holds the chunks written before it stopped"
 
 
@@ -62,7 +65,8 @@ class TraceWriter:
     sample, so that a very long run gives a trace a viewer can open (docs/trace.md "Long runs").
     """
 
-    def __init__(self, rec, scenario_name: str, end_time: float, scene: dict | None = None, envelope_rows: int = 1):
+    def __init__(self, rec, scenario_name: str, end_time: float, scene: dict | None = None, envelope_rows: int = 1,
+                 source: str = ""):
         self.rec, self.end_time, self.scene, self.envelope_rows = rec, end_time, scene, envelope_rows
         self.units = UNITS | (scene or {}).get("units", {})
         self.keys: dict[str, None] = {}  # every signal written, in order
@@ -75,6 +79,8 @@ class TraceWriter:
                       "error": UNFINISHED_ERROR,
                       "metrics": {}, "checks": []}
         self._log_result(unfinished)
+        if source:  # first in the file, so that a later run reads it cheaply (trace_reader.recorded_source)
+            rec.log(SOURCE_ENTITY, rr.TextDocument(str(Path(source).resolve()), media_type="text/plain"), static=True)
         if scene is not None:
             write_scene_static(rec, scene)
         rec.flush()  # from now on the file is a readable, unfinished run, whatever ends the process
@@ -202,13 +208,18 @@ def recording_to(path, application: str = APP_ID, live=None, footer: bool = True
 
 
 def _summary_markdown(result: dict) -> str:
+    """The result pane: status, checks, and each metric with its one-line meaning and, where its
+    value looks alarming by design, the note saying why (testbed.metrics)."""
+    from testbed.metrics import caveats, meaning  # the metric registry sits above the recording
+
     lines = [f"# {result.get('scenario', '')}", "", f"status: **{result.get('status', '')}**", ""]
     if result.get("error"):
         lines += [f"error: {result['error']}", ""]
     if result.get("checks"):
-        lines += ["| check | value | limit | passed |", "|---|---|---|---|"]
-        lines += [f"| {c['name']} | {value_text(c['value'], c['limit'], c['passed'])} | {c['limit']} | {c['passed']} |"
-                  for c in result["checks"]]
-    lines += ["", "| metric | value |", "|---|---|"]
-    lines += [f"| {k} | {v:.6g} |" for k, v in result.get("metrics", {}).items()]
+        lines += markdown_table(["check", "value", "limit", "passed"],
+                                [[c["name"], value_text(c["value"], c["limit"], c["passed"]), c["limit"], c["passed"]]
+                                 for c in result["checks"]])
+    values = result.get("metrics", {})
+    lines += [""] + markdown_table(["metric", "value", "meaning"], [[k, f"{v:.6g}", meaning(k)] for k, v in values.items()])
+    lines += [f"\n**{name}**: {caveat}" for name, caveat in caveats(values).items()]
     return "\n".join(lines)

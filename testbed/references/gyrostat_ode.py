@@ -18,7 +18,6 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from testbed.errors import InputError
 from testbed.math.validation import inertia_matrix, vector3
@@ -81,6 +80,7 @@ def gyrostat_omega(inertia, h_body, omega0, t, h_dot=None, rtol: float = RTOL,
     if t[-1] == 0.0:
         out[:] = w0
         return out
+    from scipy.integrate import solve_ivp  # on use: at the top it would cost every command start-up time
     sol = solve_ivp(gyrostat_rhs(inertia, h_fun, hd_fun), (0.0, t[-1]), w0,
                     method="DOP853", rtol=rtol, atol=atol, t_eval=t)
     if not sol.success:

@@ -1,4 +1,4 @@
-"""Metrics of steering runs (SEEDS §004): attitude reached, gimbal rates, singularity.
+"""Metrics of steering runs (the rhombus-cluster reorientation paper, docs/theory/papers.md): attitude reached, gimbal rates, singularity.
 
 They apply to runs whose allocator is a steering law (testbed.steering); the attitude
 metrics also need the `slew` law. The commanded-rate, rate-limit, singularity and
@@ -78,7 +78,7 @@ def peak_gimbal_rate_measured_deg_s(run) -> float:
 
 @metric("rate_limit_violations", applies=_steered, uses=())
 def rate_limit_violations(run) -> float:
-    """Count of commanded |b'_i| > b'max over every control step and gimbal (SEEDS §004 eq. 4; must be 0)."""
+    """Count of commanded |b'_i| > b'max over every control step and gimbal (must be 0)."""
     return float(run.statistics["allocator"]["rate_limit_violations"])
 
 
@@ -117,7 +117,16 @@ def min_singularity_measure(run) -> float:
     return float(run.statistics["allocator"]["min_singularity"])
 
 
-@metric("min_scale", applies=_steered, uses=())
+RATE_LIMITED = ("The rate limit scales a demand the gimbals cannot follow by one factor k <= 1, keeping "
+                "its direction: a law whose gains ask for more torque than the cluster gives within its "
+                "gimbal-rate limit is slowed down, not broken (docs/theory/steering.md).")
+
+
+def _rate_limited(values: dict) -> bool:
+    return values.get("min_scale", 1.0) < 1.0
+
+
+@metric("min_scale", applies=_steered, uses=(), caveat=RATE_LIMITED, caveat_when=_rate_limited)
 def min_scale(run) -> float:
     """Smallest factor k the rate limit applied to the demand over every control step (1: never limited)."""
     return float(run.statistics["allocator"]["min_scale"])
@@ -142,7 +151,10 @@ def torque_error_rms(run) -> float:
     return float(np.sqrt(run.reduced(TORQUE_SQUARES)[0]))
 
 
-@metric("torque_error_rel", applies=_torque_demanded, uses=(TORQUE_SQUARES,))
+@metric("torque_error_rel", applies=_torque_demanded, uses=(TORQUE_SQUARES,),
+        caveat="Large by design when min_scale < 1: what the gimbal-rate limit cut from the law's demand "
+               "counts as not delivered, though the run converges as designed (see min_scale).",
+        caveat_when=lambda values: _rate_limited(values) and values.get("torque_error_rel", 0.0) > 0.01)
 def torque_error_rel(run) -> float:
     """torque_error_rms / RMS |M_wanted|: the fraction of the wanted torque not delivered."""
     error, wanted = np.sqrt(run.reduced(TORQUE_SQUARES))

@@ -99,7 +99,6 @@ import functools
 import math
 
 import numpy as np
-from scipy.optimize import linprog
 
 from testbed.errors import InputError
 from testbed.math.validation import number_in, positive_number
@@ -137,6 +136,7 @@ def largest_exact_fraction(x: np.ndarray, n: np.ndarray, lo: np.ndarray, hi: np.
     """(k, t) with the largest k in [0, 1] such that lo <= k x + t n <= hi, t the min-max one at
     that k; None when no k in [0, 1] has such a t (the LP in (k, t) of the module doc, step 4)."""
     a_ub = np.vstack([np.column_stack([x, n]), -np.column_stack([x, n])])
+    from scipy.optimize import linprog  # on use: at the top it would cost every command start-up time
     res = linprog([-1.0, 0.0], A_ub=a_ub, b_ub=np.r_[hi, -lo], bounds=[(0.0, 1.0), (None, None)],
                   method="highs", options=HIGHS_OPTIONS)
     if res.status != 0:

@@ -29,7 +29,6 @@ uses the projected b.
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import linprog
 
 from testbed.errors import InputError
 from testbed.steering.least_squares import (DEFAULT_RCOND, jacobian_svd, min_norm_solution,
@@ -52,6 +51,7 @@ def epigraph_lp_rates(J: np.ndarray, b: np.ndarray) -> np.ndarray | None:
     a_ub = np.block([[I, -np.ones((units, 1))], [-I, -np.ones((units, 1))]])  # +-beta'_i - s <= 0
     a_eq = np.hstack([J, np.zeros((3, 1))])
     bounds = [(None, None)] * units + [(0, None)]
+    from scipy.optimize import linprog  # on use: at the top it would cost every command start-up time
     res = linprog(np.r_[np.zeros(units), 1.0], A_ub=a_ub, b_ub=np.zeros(2 * units), A_eq=a_eq, b_eq=b,
                   bounds=bounds, method="highs", options=HIGHS_OPTIONS)
     return res.x[:units] if res.status == 0 else None
@@ -71,6 +71,7 @@ def paper_lp_rates(J: np.ndarray, b: np.ndarray) -> np.ndarray | None:
     # Rows of (27) as a_z1 * Z1 - Z2 <= rhs: Z2 >= +-Z1 and Z2 >= +-(c_i0 + c_i1 Z1).
     a_ub = np.column_stack([np.r_[1.0, -1.0, c1, -c1], -np.ones(8)])
     b_ub = np.r_[0.0, 0.0, -c0, c0]
+    from scipy.optimize import linprog
     res = linprog([0.0, 1.0], A_ub=a_ub, b_ub=b_ub, bounds=[(None, None), (0, None)],
                   method="highs", options=HIGHS_OPTIONS)
     if res.status != 0:
@@ -96,6 +97,7 @@ def nullspace_lp_rates(p: np.ndarray, null_rows: np.ndarray) -> np.ndarray | Non
         return p
     N = null_rows.T  # (n, d)
     a_ub = np.block([[N, -np.ones((units, 1))], [-N, -np.ones((units, 1))]])  # +-(p + N z) <= s
+    from scipy.optimize import linprog
     res = linprog(np.r_[np.zeros(d), 1.0], A_ub=a_ub, b_ub=np.r_[-p, p],
                   bounds=[(None, None)] * d + [(0, None)], method="highs", options=HIGHS_OPTIONS)
     return p + N @ res.x[:d] if res.status == 0 else None

@@ -21,7 +21,6 @@ cluster's own functions, taking stacked angles B (m, 4).
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from testbed.steering.minimax_exact import cofactor_null_vector
 
@@ -83,6 +82,7 @@ def extend_ends(momentum, jacobian, chains: list[np.ndarray], target, spacing: f
     reaches `travel_bound`. A one-sample chain grows both ways (along +n and -n, or +-seeds_heading)."""
     if not chains or steps <= 0:
         return chains
+    from scipy.spatial import cKDTree  # on use: at the top it would cost every command start-up time
     others = cKDTree(wrapped(np.concatenate(chains)), boxsize=TAU)
     points, headings, owner, front = [], [], [], []
     for c, chain in enumerate(chains):

@@ -27,7 +27,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from testbed.steering.momentum_fibres import TAU, difference, measures, next_level, onto_level, trace_chain, wrapped
 
@@ -98,6 +97,7 @@ def least_times(times: np.ndarray, levels_of_time: np.ndarray, level_values: np.
 
 def _links(lower: np.ndarray, upper: np.ndarray, radius: float):
     """(i, j, Euclidean travel) for every pair of samples with max_g |upper_j - lower_i| <= radius (on the torus)."""
+    from scipy.spatial import cKDTree  # on use: at the top it would cost every command start-up time
     pairs = cKDTree(lower, boxsize=TAU).sparse_distance_matrix(cKDTree(upper, boxsize=TAU), radius, p=np.inf,
                                                                   output_type="ndarray")
     i, j = pairs["i"].astype(int), pairs["j"].astype(int)

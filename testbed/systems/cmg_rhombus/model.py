@@ -94,7 +94,8 @@ class CmgUnitsParams:
 
 @dataclass(kw_only=True)
 class CmgRhombusParams(CmgUnitsParams):
-    """The bus plus four single-gimbal CMGs in the rhombus layout (SEEDS §004).
+    """The bus plus four single-gimbal CMGs in the rhombus layout of the redundant-gyrodyne
+    reorientation paper (docs/theory/papers.md).
 
     inertia_kg_m2: principal inertia of the bus alone about its CoM; the system inertia also
         contains the CMG masses at cmg_distance_m and their own inertias.

@@ -31,8 +31,6 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from testbed.systems.free_bus import BUS_BODY
 from testbed.systems.cmg_rhombus.cluster import CLUSTER_SYSTEMS, ClusterGeometry, unit_count, unit_names
@@ -147,6 +145,7 @@ class GimbalHistory:
 
     def __init__(self, t_samples, beta, beta_rate, rotor_rate):
         t = np.asarray(t_samples, dtype=float)
+        from scipy.interpolate import CubicHermiteSpline, CubicSpline  # on use: at the top it would cost every command start-up time
         self.beta = CubicHermiteSpline(t, np.asarray(beta, float), np.asarray(beta_rate, float))
         self.beta_rate = CubicSpline(t, np.asarray(beta_rate, dtype=float))
         self.rotor_rate = CubicSpline(t, np.asarray(rotor_rate, dtype=float))
@@ -201,6 +200,7 @@ def reduced_cmg_segment(mass_model, t_samples, beta, beta_rate, rotor_rate, t_ev
         b, b_rate, rotor = history(t0)
         momentum0 = (mass_model.system_inertia(b) @ np.asarray(omega0, dtype=float)
                      + mass_model.internal_momentum(b, b_rate, rotor))
+    from scipy.integrate import solve_ivp  # on use: at the top it would cost every command start-up time
     sol = solve_ivp(rhs, (t0, float(t_eval[-1])), momentum0, method="DOP853", t_eval=t_eval,
                     rtol=rtol, atol=atol)
     if not sol.success:
@@ -219,6 +219,7 @@ def textbook_cmg_omega(inertia, geometry, t_samples, beta, beta_rate, omega0, t_
     constant inertia I (3, 3), H = h sum_i a_i(beta) and H' = h J(beta) beta' (nominal rotor
     momentum, gimbal momentum ignored). For comparison only; (N, 3)."""
     t_samples = np.asarray(t_samples, dtype=float)
+    from scipy.interpolate import CubicHermiteSpline, CubicSpline
     beta_spline = CubicHermiteSpline(t_samples, np.asarray(beta, float),
                                      np.asarray(beta_rate, float))
     rate_spline = CubicSpline(t_samples, np.asarray(beta_rate, dtype=float))
@@ -232,6 +233,7 @@ def textbook_cmg_omega(inertia, geometry, t_samples, beta, beta_rate, omega0, t_
                                                                   + momentum))
 
     t_eval = np.asarray(t_eval, dtype=float)
+    from scipy.integrate import solve_ivp
     sol = solve_ivp(rhs, (t_samples[0], t_eval[-1]), np.asarray(omega0, dtype=float),
                     method="DOP853", t_eval=t_eval, rtol=rtol, atol=atol)
     if not sol.success:

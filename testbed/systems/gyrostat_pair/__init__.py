@@ -26,8 +26,8 @@ def make_plant(params: GyrostatPairParams, sim) -> GyrostatPairPlant:
 
 @reference("gyrostat_leader", systems=("gyrostat_pair",))
 def _gyrostat_leader(plant, params):
-    """The leader of seed 003, eq. (1) with constant lambda: A w' + w x (A w + lambda) = 0
-    (solve_ivp); A = its locked inertia from mj_fullM, lambda = J x rotor speeds at t = 0."""
+    """The leader of the gyrostat-synchronisation paper (docs/theory/papers.md), eq. (1) with
+    constant lambda: A w' + w x (A w + lambda) = 0 (solve_ivp); A = its locked inertia from mj_fullM, lambda = J x rotor speeds at t = 0."""
     from testbed.references.gyrostat_ode import gyrostat_omega
 
     inertia, moment, omega0 = plant.locked_inertia(), plant.moment("leader"), plant.omega()

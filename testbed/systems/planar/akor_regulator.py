@@ -19,8 +19,6 @@ Checked against the original (OCR) by computation:
 """
 
 import numpy as np
-from scipy.linalg import solve_continuous_are
-from scipy.optimize import brentq, minimize_scalar
 
 from testbed.errors import InputError
 
@@ -55,6 +53,7 @@ def riccati_closed_form(b11, b22, k):
 def riccati_scipy(b11, b22, k):
     """The same S from scipy.linalg.solve_continuous_are(a, b, beta, R = 1/k) (eq. 8)."""
     check_weights(b11, b22, k)
+    from scipy.linalg import solve_continuous_are  # on use: at the top it would cost every command start-up time
     return solve_continuous_are(A_PLANT, B_PLANT.reshape(2, 1), np.diag([b11, b22]), np.array([[1.0 / k]]))
 
 
@@ -240,6 +239,7 @@ def settling_time_95(b11, b22, k):
     def g(t):
         return abs(_expm_2x2(ast, [t])[0, 0, 0]) - 0.05
 
+    from scipy.optimize import brentq, minimize_scalar  # on use: at the top it would cost every command start-up time
     return brentq(g, T[i], T[i + 1], xtol=1e-12 / eta)
 
 
@@ -294,6 +294,7 @@ def peak_power(b11, b22, k, x10):
     P = power(b11, b22, k, response(b11, b22, k, [x10, 0.0], T))
     i = int(np.argmax(P))
     lo, hi = T[max(i - 1, 0)], T[min(i + 1, T.size - 1)]
+    from scipy.optimize import brentq, minimize_scalar
     res = minimize_scalar(lambda t: -power(b11, b22, k, response(b11, b22, k, [x10, 0.0], t)),
                           bounds=(lo, hi), method="bounded", options={"xatol": 1e-10 / eta})
     return float(res.x), float(-res.fun)
