@@ -16,6 +16,7 @@ from testbed.environment.atmosphere import exponential_density, EXPONENTIAL_TABL
 from testbed.environment.desaturation import desaturation_dipole
 from testbed.environment.facets import Facets
 from testbed.environment.magnetic_field import dipole_field, greenwich_angle
+from testbed.environment.midpoint_hold import MidpointHold
 
 RE = 6378137.0
 
@@ -75,6 +76,25 @@ def test_the_desaturation_dipole_is_the_cross_product_law_clipped_in_direction()
     np.testing.assert_allclose(np.cross(m, b), -k * perp, rtol=1e-12)
     clipped = desaturation_dipole(h, np.zeros(3), b, k, [10.0] * 3)
     assert np.abs(clipped).max() == pytest.approx(10.0) and np.allclose(np.cross(clipped, m), 0.0, atol=1e-9)
+
+
+def test_the_midpoint_hold_is_exact_on_a_line_and_misses_a_parabola_by_three_eighths_h_squared():
+    """Held over [t, t + h]: y(t) + (h/2) (y(t) - y(t - h)) / h. A line is met at the midpoint
+    exactly; for y = t^2 the value is t^2 + t h - h^2/2 against (t + h/2)^2: short by 3 h^2 / 4
+    (the -(3/8) h^2 y'' of the extrapolation). The first sample and a step marked not smooth
+    are held as they are; so is a sample after a step back in time."""
+    h = 0.7
+    line, parabola = MidpointHold(h), MidpointHold(h)
+    assert line(0.0, np.array([2.0])) == pytest.approx(2.0)
+    for k in range(1, 5):
+        t = k * h
+        assert line(t, np.array([2.0 + 3.0 * t]))[0] == pytest.approx(2.0 + 3.0 * (t + h / 2), rel=1e-14)
+    for k in range(5):
+        t = 3.0 + k * h
+        held = parabola(t, np.array([t * t]))[0]
+    assert held == pytest.approx((t + h / 2) ** 2 - 0.75 * h * h, rel=1e-14)
+    assert parabola(t + h, np.array([5.0]), smooth=False)[0] == 5.0
+    assert parabola(0.0, np.array([7.0]))[0] == 7.0
 
 
 SHORT = ["sim.duration_s=1200", "sim.trace_period_s=2", "environment.magnetorquers.gain_1_s=1.5e-3"]

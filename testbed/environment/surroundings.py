@@ -2,7 +2,7 @@
 periods) the orbit's state at the plant's time, the Sun and the shadow, the field, each
 torque the scenario switches on, and the magnetorquers' dipole from the desaturation law;
 their sum is written into MuJoCo's `xfrc_applied` of the bus (world axes), held until the
-next update. The orbit is read from its own grid (testbed.orbit.propagation): the attitude
+next update at its value extrapolated to the period's midpoint (midpoint_hold.py). The orbit is read from its own grid (testbed.orbit.propagation): the attitude
 never changes it. Every value is recorded with the truth (`truth/orbit_position`, ...,
 docs/theory/environment.md "Trace")."""
 
@@ -18,6 +18,7 @@ from testbed.environment.desaturation import desaturation_dipole
 from testbed.environment.facets import Facets
 from testbed.environment.gravity_gradient import gravity_gradient_torque
 from testbed.environment.magnetic_field import dipole_field, greenwich_angle
+from testbed.environment.midpoint_hold import MidpointHold
 from testbed.errors import InputError
 from testbed.math.cross import cross3
 from testbed.math.quaternion import quat_conj, quat_mul, quat_to_matrix
@@ -69,6 +70,10 @@ class Surroundings:
             self.noise = np.random.default_rng(p.magnetometer.seed)
         self.dipole = ZERO3
         self.applied_world = np.zeros(6)  # the wrench held on the bus until the next update
+        # the environment's torque (world axes) and the field the magnetorquers' held dipole
+        # turns in (body axes), each held at its extrapolated midpoint value (midpoint_hold.py)
+        self.torque_hold, self.field_hold = MidpointHold(self.period), MidpointHold(self.period)
+        self.shadow = None
 
     def _check_fit(self, orbit_params, plant) -> None:
         """Refuse, before the run, an orbit the drag model is not valid at."""
@@ -103,6 +108,8 @@ class Surroundings:
         signals = {"orbit_position": r, "orbit_velocity": v,
                    "quat_lvlh": relative if relative[0] >= 0 else -relative}  # one sign: a continuous trace
         total = np.zeros(3)
+        magnetorquer_world = ZERO3
+        shadow = None
         if p is not None:
             jd = self.start_jd + t / 86400.0
             if p.gravity_gradient:
@@ -127,10 +134,21 @@ class Surroundings:
                 signals["torque_drag"] = torque
                 total = total + torque
             if p.magnetic_field is not None:
-                total = total + self._magnetic(r, to_world, jd, plant, signals)
-        self.applied_world = np.concatenate([np.zeros(3), to_world @ total])  # (force, torque), world axes
+                field = to_world.T @ dipole_field(r, jd)
+                signals["magnetic_field"] = field
+                torque = cross3(np.asarray(p.magnetic_field.residual_dipole_am2, float), field)
+                signals["torque_residual_dipole"] = torque
+                total = total + torque
+                if p.magnetorquers is not None:
+                    dipole = self._desaturation(field, plant, signals)
+                    magnetorquer_world = to_world @ cross3(dipole, self.field_hold(t, field))
+        # a step of the solar pressure into or out of the shadow is held as it is, not extrapolated
+        smooth = shadow == self.shadow
+        self.shadow = shadow
+        applied = self.torque_hold(t, to_world @ total, smooth) + magnetorquer_world
+        self.applied_world = np.concatenate([ZERO3, applied])  # (force, torque), world axes
         self.wrench[:] = self.applied_world
-        signals["torque_environment"] = total
+        signals["torque_environment"] = to_world.T @ applied  # what is held over the coming period
         self.signals = signals
 
     def _drag(self, r, v, to_world, jd: float, t: float) -> np.ndarray:
@@ -147,26 +165,20 @@ class Surroundings:
         v_rel = v - EARTH_RATE_RAD_S * np.array([-r[1], r[0], 0.0])
         return self.facets.drag_torque(to_world.T @ v_rel, density, self.params.drag.drag_coefficient)
 
-    def _magnetic(self, r, to_world, jd: float, plant, signals) -> np.ndarray:
-        """Residual-dipole and magnetorquer torques m x B (body axes); the magnetometer's
-        reading and the desaturation law's dipole, held until the next update."""
+    def _desaturation(self, field, plant, signals) -> np.ndarray:
+        """The magnetorquers' dipole (body axes) [A m^2], held until the next update: the
+        desaturation law's on the magnetometer's reading of the field (body axes) [T]; the
+        torque it makes at the field's instant value is recorded."""
         p = self.params
-        field = to_world.T @ dipole_field(r, jd)
-        signals["magnetic_field"] = field
-        torque = cross3(np.asarray(p.magnetic_field.residual_dipole_am2, float), field)
-        signals["torque_residual_dipole"] = torque
-        if p.magnetorquers is not None:
-            measured = field if self.noise is None else field + self.noise.normal(0.0, p.magnetometer.noise_t, 3)
-            signals["magnetometer"] = measured
-            m = p.magnetorquers
-            if m.desaturation:
-                self.dipole = desaturation_dipole(plant.internal_momentum_body(), np.asarray(m.target_momentum_nms),
-                                                  measured, m.gain_1_s, m.max_dipole_am2)
-            signals["magnetorquer_dipole"] = self.dipole
-            magnetorquer = cross3(self.dipole, field)
-            signals["torque_magnetorquer"] = magnetorquer
-            torque = torque + magnetorquer
-        return torque
+        measured = field if self.noise is None else field + self.noise.normal(0.0, p.magnetometer.noise_t, 3)
+        signals["magnetometer"] = measured
+        m = p.magnetorquers
+        if m.desaturation:
+            self.dipole = desaturation_dipole(plant.internal_momentum_body(), np.asarray(m.target_momentum_nms),
+                                              measured, m.gain_1_s, m.max_dipole_am2)
+        signals["magnetorquer_dipole"] = self.dipole
+        signals["torque_magnetorquer"] = cross3(self.dipole, field)
+        return self.dipole
 
 
 def prepare(scenario, plant):
