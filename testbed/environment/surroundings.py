@@ -9,15 +9,15 @@ docs/theory/environment.md "Trace")."""
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 
-from testbed.environment.atmosphere import VALID_ALTITUDE_KM, MsisDensity, exponential_density
+from testbed.environment.along_orbit import AlongOrbit
+from testbed.environment.atmosphere import VALID_ALTITUDE_KM, MsisDensity
 from testbed.environment.desaturation import desaturation_dipole
 from testbed.environment.facets import Facets
 from testbed.environment.gravity_gradient import gravity_gradient_torque
-from testbed.environment.magnetic_field import dipole_field, greenwich_angle
+from testbed.environment.magnetic_field import IGRF_SPAN_YEARS
 from testbed.environment.midpoint_hold import MidpointHold
 from testbed.errors import InputError
 from testbed.math.cross import cross3
@@ -25,7 +25,7 @@ from testbed.math.quaternion import quat_conj, quat_mul, quat_to_matrix
 from testbed.orbit.config import initial_in_eci
 from testbed.orbit.constants import AU_M, EARTH_RADIUS_M, EARTH_RATE_RAD_S, SOLAR_PRESSURE_1AU_N_M2
 from testbed.orbit.frames import lvlh_quat
-from testbed.orbit.sun import in_cylindrical_shadow, sun_position
+from testbed.orbit.sun import in_cylindrical_shadow
 from testbed.plant import SimulationDiverged
 from testbed.scenario.schema import whole_multiple
 
@@ -43,8 +43,6 @@ class Surroundings:
     """The orbit and the environment of one plant (see the module doc)."""
 
     def __init__(self, orbit_params, params, plant, sim):
-        self.orbit = orbit_params.propagator()
-        self.start_jd = orbit_params.start_jd
         self.params = params
         self.bus_id = plant.bus.bus_body_id
         self.wrench = plant.data.xfrc_applied[self.bus_id]
@@ -56,15 +54,20 @@ class Surroundings:
             self.period = params.update_period_s
         self.next_time = 0.0
         self.signals: dict[str, np.ndarray] = {}
-        self._check_fit(orbit_params, plant)
+        self.epoch = orbit_params.epoch()
+        self._check_fit(orbit_params, sim)
         p = params
         if p is not None and (p.drag is not None or p.solar_pressure is not None):
             half = p.facet_half_size_m or plant.scene()["bus_half_size"]
             self.facets = Facets(half, p.centre_of_pressure_offset_m)
-        self.density = None
+        density = None
         if p is not None and p.drag is not None:
-            self.density = (MsisDensity(p.drag.f107_sfu, p.drag.ap) if p.drag.atmosphere == "nrlmsis"
-                            else None)
+            density = (MsisDensity(p.drag.f107_sfu, p.drag.ap) if p.drag.atmosphere == "nrlmsis"
+                       else "exponential")
+        self.along = AlongOrbit(orbit_params.propagator(), self.epoch, self.period,
+                                int(sim.duration_s / self.period + 1e-9),
+                                sun=p is not None and p.sun, density_model=density,
+                                field_model=None if p is None or p.magnetic_field is None else p.magnetic_field.model)
         self.noise = None
         if p is not None and p.magnetometer is not None and p.magnetometer.noise_t > 0:
             self.noise = np.random.default_rng(p.magnetometer.seed)
@@ -75,9 +78,19 @@ class Surroundings:
         self.torque_hold, self.field_hold = MidpointHold(self.period), MidpointHold(self.period)
         self.shadow = None
 
-    def _check_fit(self, orbit_params, plant) -> None:
-        """Refuse, before the run, an orbit the drag model is not valid at."""
-        if self.params is None or self.params.drag is None:
+    def _check_fit(self, orbit_params, sim) -> None:
+        """Refuse, before the run, an orbit the drag model is not valid at, or a run outside
+        the field model's years."""
+        if self.params is None:
+            return
+        if self.params.magnetic_field is not None:
+            first, last = (self.epoch.utc_datetime64(t).astype("datetime64[Y]").astype(int) + 1970
+                           for t in (0.0, sim.duration_s))
+            low, high = IGRF_SPAN_YEARS
+            if first < low or last >= high:
+                raise InputError("orbit.epoch_utc", f"the run ({first}-{last}) is outside IGRF-14's years "
+                                 f"{low}-{high - 1}, which environment.magnetic_field needs")
+        if self.params.drag is None:
             return
         perigee, apogee = orbit_params.perigee_apogee_m()
         low, high = VALID_ALTITUDE_KM
@@ -100,7 +113,8 @@ class Surroundings:
 
     def _update(self, t: float, plant) -> None:
         p = self.params
-        r, v = self.orbit.state(t)
+        here = self.along.at(t)
+        r, v = here["r"], here["v"]
         q = plant.quat()
         to_world = quat_to_matrix(q)
         r_body = to_world.T @ r
@@ -111,13 +125,12 @@ class Surroundings:
         magnetorquer_world = ZERO3
         shadow = None
         if p is not None:
-            jd = self.start_jd + t / 86400.0
             if p.gravity_gradient:
                 torque = gravity_gradient_torque(r_body, plant.bus.system_inertia(plant.data))
                 signals["torque_gravity_gradient"] = torque
                 total = total + torque
             if p.sun:
-                sun = sun_position(jd)
+                sun = here["sun"]
                 shadow = p.eclipse and in_cylindrical_shadow(r, sun)
                 signals["eclipse"] = np.array([1.0 if shadow else 0.0])
                 to_sun = sun - r
@@ -130,11 +143,13 @@ class Surroundings:
                     signals["torque_solar_pressure"] = torque
                     total = total + torque
             if p.drag is not None:
-                torque = self._drag(r, v, to_world, jd, t)
+                # the air turns with the Earth: v_rel = v - omega_E pole x r
+                v_rel = v - EARTH_RATE_RAD_S * cross3(here["pole"], r)
+                torque = self.facets.drag_torque(to_world.T @ v_rel, here["density"], p.drag.drag_coefficient)
                 signals["torque_drag"] = torque
                 total = total + torque
             if p.magnetic_field is not None:
-                field = to_world.T @ dipole_field(r, jd)
+                field = to_world.T @ here["field"]
                 signals["magnetic_field"] = field
                 torque = cross3(np.asarray(p.magnetic_field.residual_dipole_am2, float), field)
                 signals["torque_residual_dipole"] = torque
@@ -150,20 +165,6 @@ class Surroundings:
         self.wrench[:] = self.applied_world
         signals["torque_environment"] = to_world.T @ applied  # what is held over the coming period
         self.signals = signals
-
-    def _drag(self, r, v, to_world, jd: float, t: float) -> np.ndarray:
-        """Facet drag in the air co-rotating with the Earth: v_rel = v - omega_E z x r."""
-        altitude_km = (float(np.linalg.norm(r)) - EARTH_RADIUS_M) / 1e3
-        if self.density is None:
-            density = exponential_density(altitude_km)
-        else:
-            theta = greenwich_angle(jd)
-            lon = math.degrees(math.atan2(r[1], r[0]) - theta)
-            lat = math.degrees(math.asin(r[2] / np.linalg.norm(r)))
-            when = np.datetime64("2000-01-01T12:00:00") + np.timedelta64(int(round((jd - 2451545.0) * 86400e3)), "ms")
-            density = self.density(when, (lon + 180.0) % 360.0 - 180.0, lat, altitude_km)
-        v_rel = v - EARTH_RATE_RAD_S * np.array([-r[1], r[0], 0.0])
-        return self.facets.drag_torque(to_world.T @ v_rel, density, self.params.drag.drag_coefficient)
 
     def _desaturation(self, field, plant, signals) -> np.ndarray:
         """The magnetorquers' dipole (body axes) [A m^2], held until the next update: the
