@@ -10,37 +10,14 @@ import math
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
-from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 import testbed
+from testbed.environment import libration
+from testbed.environment.libration import fitted_frequencies as frequencies
 
 MU = 3.986004418e14
 RE = 6378137.0
-
-
-def frequencies(t, signals, k):
-    """The k strongest angular frequencies [rad/s] shared by the signals x_i(t): the peaks of
-    the summed FFT power (16x padded, Hann window), refined by one least-squares fit of k
-    sinusoids (each signal its own amplitudes and offset) to all the samples."""
-    signals = [x - x.mean() for x in signals]
-    padded = 16 * len(t)
-    power = sum(np.abs(np.fft.rfft(x * np.hanning(len(x)), padded)) ** 2 for x in signals)
-    omega = np.fft.rfftfreq(padded, t[1] - t[0]) * 2 * np.pi
-    peaks = [i for i in range(1, len(power) - 1) if power[i - 1] <= power[i] >= power[i + 1]]
-    guess = np.sort(omega[sorted(peaks, key=lambda i: -power[i])[:k]])
-    per = 2 * k + 1
-
-    def residual(p):
-        out = []
-        for i, x in enumerate(signals):
-            c = p[k + i * per:k + (i + 1) * per]
-            out.append(c[-1] + sum(c[2 * j] * np.cos(p[j] * t) + c[2 * j + 1] * np.sin(p[j] * t)
-                                   for j in range(k)) - x)
-        return np.concatenate(out)
-
-    start = np.concatenate([guess, np.zeros(per * len(signals))])
-    return np.sort(least_squares(residual, start).x[:k])
 
 
 def roll_yaw_frequencies(inertia, n):
@@ -57,6 +34,17 @@ def roll_yaw_frequencies(inertia, n):
     eigenvalues = np.linalg.eigvals(a)
     assert np.allclose(eigenvalues.real, 0.0, atol=1e-12 * n)  # the Lagrange region: neutrally stable
     return np.sort(np.unique(np.round(np.abs(eigenvalues.imag), 15)))
+
+
+@pytest.mark.parametrize("inertia", [[1000, 1200, 600], [1500, 2000, 800], [420, 510, 260], [3.1, 4.0, 1.2]])
+def test_the_closed_form_roll_yaw_frequencies_are_the_eigenvalues_of_the_linearised_motion(inertia):
+    """Wie's quartic in w^2 (the metric's closed form) against the eigenvalues of the first-order
+    system here: the same two numbers to round-off (1e-12); pitch n sqrt(3 (Ix - Iz)/Iy) by hand."""
+    n = 1.1e-3
+    np.testing.assert_allclose(libration.roll_yaw_frequencies(inertia, n), roll_yaw_frequencies(inertia, n),
+                               rtol=1e-12)
+    ix, iy, iz = inertia
+    assert libration.pitch_frequency(inertia, n) == pytest.approx(n * math.sqrt(3 * (ix - iz) / iy), rel=1e-15)
 
 
 @pytest.mark.parametrize(("inertia", "altitude_km"), [
@@ -78,6 +66,11 @@ def test_gravity_gradient_libration_frequencies(inertia, altitude_km):
     assert frequencies(t, [pitch], 1)[0] == pytest.approx(n * math.sqrt(3 * (ix - iz) / iy), rel=5e-3)
     expected = roll_yaw_frequencies(inertia, n)
     np.testing.assert_allclose(frequencies(t, [roll, yaw], 2), expected, rtol=1e-2)
+    # the scenario's own checks are these figures
+    pitch_error = abs(frequencies(t, [pitch], 1)[0] / (n * math.sqrt(3 * (ix - iz) / iy)) - 1)
+    assert result.metrics["pitch_libration_error_rel"] == pytest.approx(pitch_error, rel=1e-6, abs=1e-12)
+    roll_yaw_error = np.max(np.abs(frequencies(t, [roll, yaw], 2) / expected - 1))
+    assert result.metrics["roll_yaw_libration_error_rel"] == pytest.approx(roll_yaw_error, rel=1e-6, abs=1e-9)
 
 
 def rigid_body_in_circular_orbit(times, q0, omega0, inertia, a, inclination):
