@@ -17,7 +17,10 @@ import testbed
 from testbed.environment.atmosphere import exponential_density, EXPONENTIAL_TABLE
 from testbed.environment.desaturation import desaturation_dipole
 from testbed.environment.facets import Facets
-from testbed.environment.magnetic_field import dipole_field, greenwich_angle
+from testbed.environment.along_orbit import AlongOrbit
+from testbed.environment.atmosphere import MsisDensity
+from testbed.environment.magnetic_field import field_itrs
+from testbed.environment.midpoint_hold import MidpointHold
 
 RE = 6378137.0
 
@@ -41,24 +44,115 @@ def test_solar_pressure_on_a_face_turned_to_the_sun():
                                atol=1e-12 * force)
 
 
-def test_the_dipole_field_is_twice_as_strong_at_its_pole_as_at_its_equator():
-    """|B| = B0 (R/r)^3 on the dipole's equator and 2 B0 (R/r)^3 on its axis, B0 ~ 29.7 uT
-    (IGRF-13 degree 1: sqrt(g10^2 + g11^2 + h11^2)); on the axis above the north it points down."""
-    jd = 2461000.5
-    theta = greenwich_angle(jd)
-    axis_ecef = np.array([-1450.9, 4652.5, -29404.8])
-    b0 = np.linalg.norm(axis_ecef) * 1e-9
-    axis_ecef /= np.linalg.norm(axis_ecef)
-    turn = np.array([[math.cos(theta), -math.sin(theta), 0], [math.sin(theta), math.cos(theta), 0], [0, 0, 1]])
-    north_pole = -turn @ axis_ecef  # the dipole moment points south
-    r = 7000e3
-    on_axis = dipole_field(r * north_pole, jd)
-    assert np.linalg.norm(on_axis) == pytest.approx(2 * b0 * (RE / r) ** 3, rel=1e-12)
-    assert on_axis @ north_pole < 0
-    equator = np.cross(north_pole, [1.0, 0.0, 0.0])
-    equator /= np.linalg.norm(equator)
-    assert np.linalg.norm(dipole_field(r * equator, jd)) == pytest.approx(b0 * (RE / r) ** 3, rel=1e-12)
-    assert b0 == pytest.approx(29.7e-6, rel=0.01)
+WGS84_A, WGS84_F = 6378137.0, 1 / 298.257223563
+
+
+def geodetic(r):
+    """(longitude, latitude [rad], height [m]) above the WGS-84 ellipsoid of an Earth-fixed point
+    r [m]: the test's own fixed-point iteration on N(phi) = a / sqrt(1 - e^2 sin^2 phi)."""
+    e2 = WGS84_F * (2 - WGS84_F)
+    p = math.hypot(r[0], r[1])
+    lat = math.atan2(r[2], p * (1 - e2))
+    for _ in range(20):
+        n = WGS84_A / math.sqrt(1 - e2 * math.sin(lat) ** 2)
+        height = p / math.cos(lat) - n
+        lat = math.atan2(r[2], p * (1 - e2 * n / (n + height)))
+    return math.atan2(r[1], r[0]), lat, height
+
+
+def east_north_up(lon, lat):
+    """Rows: the local east, geodetic north and up in Earth-fixed axes."""
+    return np.array([[-math.sin(lon), math.cos(lon), 0.0],
+                     [-math.sin(lat) * math.cos(lon), -math.sin(lat) * math.sin(lon), math.cos(lat)],
+                     [math.cos(lat) * math.cos(lon), math.cos(lat) * math.sin(lon), math.sin(lat)]])
+
+
+POINTS = [[5.1e6, 2.3e6, 4.2e6], [-1.2e6, 0.4e6, 6.7e6], [3.0e6, -6.1e6, -1.1e6]]   # 600-900 km, lat to 80 deg
+
+
+@pytest.mark.parametrize("point", POINTS)
+def test_the_field_is_ppigrfs_at_the_geodetic_point(point):
+    """field_itrs (ppigrf's geocentric call, turned to Cartesian axes) against ppigrf's geodetic
+    call (east, north, up) at the test's own geodetic point, turned to Cartesian axes here: the
+    same model by two paths, to the precision of the library's own geodetic conversion (measured
+    4e-9 of |B|)."""
+    import ppigrf
+
+    when = np.datetime64("2027-03-04T05:06:07")
+    lon, lat, height = geodetic(point)
+    east, north, up = (float(np.ravel(b)[0]) * 1e-9 for b in ppigrf.igrf(
+        math.degrees(lon), math.degrees(lat), height / 1e3, when.astype("datetime64[us]").item()))
+    expected = east_north_up(lon, lat).T @ [east, north, up]
+    np.testing.assert_allclose(field_itrs(point, when)[0], expected, rtol=0, atol=2e-8 * np.linalg.norm(expected))
+
+
+def test_the_dipole_is_igrfs_first_degree_on_its_own_reference_sphere():
+    """model: dipole is B = (a/r)^3 (3 (m . u) u - m), m = (g11, h11, g10), on IGRF's reference
+    radius a = 6371.2 km (not WGS-84's 6378.137 km: 0.33 % stronger), the coefficients read from
+    the library's IGRF-14 file and interpolated to the date here; twice as strong on its axis as
+    on its equator. Exact to double precision (1e-12)."""
+    from ppigrf import ppigrf as library
+
+    g, h = library.read_shc(library.shc_fn)
+    when = np.datetime64("2027-04-02T06:00:00")
+    seconds = g.index.values.astype("datetime64[s]").astype(float)   # linear in time between the epochs
+    g10, g11, h11 = (np.interp(when.astype("datetime64[s]").astype(float), seconds, column) * 1e-9
+                     for column in (g[(1, 0)], g[(1, 1)], h[(1, 1)]))
+    moment = np.array([g11, h11, g10])
+    for r in np.array(POINTS):
+        u = r / np.linalg.norm(r)
+        expected = (6371.2e3 / np.linalg.norm(r)) ** 3 * (3 * (moment @ u) * u - moment)
+        np.testing.assert_allclose(field_itrs(r, when, "dipole")[0], expected, rtol=0,
+                                   atol=1e-12 * np.linalg.norm(expected))
+    axis = -moment / np.linalg.norm(moment)
+    on_axis = np.linalg.norm(field_itrs(7e6 * axis, when, "dipole")[0])
+    equator = np.cross(axis, [1.0, 0.0, 0.0])
+    on_equator = np.linalg.norm(field_itrs(7e6 * equator / np.linalg.norm(equator), when, "dipole")[0])
+    assert on_axis / on_equator == pytest.approx(2.0, rel=1e-9)
+
+
+class _Still:
+    """An orbit that stays at one GCRS point (AlongOrbit reads only `state`)."""
+
+    def __init__(self, r):
+        self.r = np.asarray(r, float)
+
+    def state(self, t):
+        return self.r, np.zeros(3)
+
+
+def test_the_density_and_field_along_the_orbit_are_the_libraries_at_the_geodetic_point():
+    """AlongOrbit's GCRS point turned to the ITRS by SOFA's full IAU 2006/2000A matrix here
+    (erfa.c2t06a at the instant; the block takes the precession-nutation at its middle: 1e-6 rad),
+    then the test's own geodetic point: NRLMSIS (pymsis) and the exponential table there, and
+    ppigrf's geodetic field turned to the GCRS, within 1e-5 (the block's approximation). At
+    82 deg the sphere's height would be 20 km too low: the density 40 % off, which the test sees."""
+    import erfa
+    import pymsis
+    from testbed.orbit.time_scales import Epoch, utc_parts
+
+    epoch = Epoch(*utc_parts(2026, 11, 3, 17, 20, 0.0))
+    r = 6840e3 * np.array([math.cos(math.radians(82)), 0.0, math.sin(math.radians(82))])
+    msis = MsisDensity(170.0, 12.0)
+    row = AlongOrbit(_Still(r), epoch, 10.0, 40, sun=False, field_model="igrf", density_model=msis).at(200.0)
+    exponential = AlongOrbit(_Still(r), epoch, 10.0, 40, sun=False, density_model="exponential").at(200.0)
+    tt, ut1 = epoch.tt(200.0), epoch.ut1(200.0)
+    to_itrs = erfa.c2t06a(*tt, *ut1, 0.0, 0.0)
+    lon, lat, height = geodetic(to_itrs @ r)
+    when = epoch.utc_datetime64(200.0)
+    expected = pymsis.calculate(np.array([when]), [math.degrees(lon)], [math.degrees(lat)], [height / 1e3],
+                                f107s=[170.0], f107as=[170.0], aps=[[12.0] * 7])[..., 0].item()
+    assert row["density"] == pytest.approx(expected, rel=1e-5)
+    assert exponential["density"] == pytest.approx(exponential_density(height / 1e3), rel=1e-5)
+    spherical = pymsis.calculate(np.array([when]), [math.degrees(lon)], [82.0], [(6840e3 - RE) / 1e3],
+                                 f107s=[170.0], f107as=[170.0], aps=[[12.0] * 7])[..., 0].item()
+    assert spherical / expected > 1.2
+    import ppigrf
+
+    east, north, up = (float(np.ravel(b)[0]) * 1e-9 for b in ppigrf.igrf(
+        math.degrees(lon), math.degrees(lat), height / 1e3, when.astype("datetime64[us]").item()))
+    field = to_itrs.T @ (east_north_up(lon, lat).T @ [east, north, up])
+    np.testing.assert_allclose(row["field"], field, atol=1e-5 * np.linalg.norm(field))
 
 
 def test_the_exponential_atmosphere_is_the_table_and_nearly_continuous():
@@ -90,6 +184,23 @@ def test_a_clipped_dipole_never_exceeds_its_limit_by_a_rounding(h, b, k, limits)
     assert np.all(np.abs(m) <= np.asarray(limits))
     law = k * np.cross(h, b) / (np.asarray(b) @ b)
     assert np.linalg.norm(np.cross(m, law)) <= 1e-12 * np.linalg.norm(m) * np.linalg.norm(law) + 1e-300
+def test_the_midpoint_hold_is_exact_on_a_line_and_misses_a_parabola_by_three_eighths_h_squared():
+    """Held over [t, t + h]: y(t) + (h/2) (y(t) - y(t - h)) / h. A line is met at the midpoint
+    exactly; for y = t^2 the value is t^2 + t h - h^2/2 against (t + h/2)^2: short by 3 h^2 / 4
+    (the -(3/8) h^2 y'' of the extrapolation). The first sample and a step marked not smooth
+    are held as they are; so is a sample after a step back in time."""
+    h = 0.7
+    line, parabola = MidpointHold(h), MidpointHold(h)
+    assert line(0.0, np.array([2.0])) == pytest.approx(2.0)
+    for k in range(1, 5):
+        t = k * h
+        assert line(t, np.array([2.0 + 3.0 * t]))[0] == pytest.approx(2.0 + 3.0 * (t + h / 2), rel=1e-14)
+    for k in range(5):
+        t = 3.0 + k * h
+        held = parabola(t, np.array([t * t]))[0]
+    assert held == pytest.approx((t + h / 2) ** 2 - 0.75 * h * h, rel=1e-14)
+    assert parabola(t + h, np.array([5.0]), smooth=False)[0] == 5.0
+    assert parabola(0.0, np.array([7.0]))[0] == 7.0
 
 
 SHORT = ["sim.duration_s=1200", "sim.trace_period_s=2", "environment.magnetorquers.gain_1_s=1.5e-3"]
@@ -163,8 +274,6 @@ def test_desaturation_slows_the_cluster_momentum_growth(managed, unmanaged):
 def test_nrlmsis_and_the_exponential_table_agree_on_the_order_of_the_density():
     """NRLMSIS 2.1 at 400 km, F10.7 = 150, Ap = 15 against Vallado's table (a mean
     atmosphere): the same order, within a factor 2 (the solar-cycle spread is a factor ~10)."""
-    from testbed.environment.atmosphere import MsisDensity
-
     msis = MsisDensity(150.0, 15.0)
-    density = msis(np.datetime64("2026-06-01T00:00"), 10.0, 20.0, 400.0)
+    density = msis(np.datetime64("2026-06-01T00:00"), 10.0, 20.0, 400.0)[0]
     assert 0.5 < density / exponential_density(400.0) < 2.0

@@ -27,7 +27,7 @@ from testbed.scenario.shipped_files import SCENARIO_DIR
 PINNED = Path(__file__).with_name("data") / "pinned_metrics.json"
 CLASSES = Path(__file__).with_name("data") / "pin_classes.json"
 # Shortened where the full run is long; the rest run in full.
-SHORTENED_S = {"cmg_open_loop": 60.0, "orbit_libration": 6000.0, "orbit_momentum_buildup": 600.0,
+SHORTENED_S = {"cmg_open_loop": 60.0, "orbit_momentum_buildup": 600.0,
                "orbit_momentum_management": 300.0, "orbit_momentum_campaign": 300.0}
 
 # Largest relative spread (kernel to kernel) a class admits; each class's tolerance is 100x it.

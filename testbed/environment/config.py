@@ -44,9 +44,10 @@ class SolarPressureParams:
 
 @dataclass(kw_only=True)
 class MagneticParams:
-    """The geomagnetic field (a tilted dipole) and the bus's residual dipole in it."""
+    """The geomagnetic field (IGRF-14) and the bus's residual dipole in it."""
 
-    model: Literal["tilted_dipole"] = param("tilted_dipole", doc="field model (IGRF-13 degree 1, epoch 2020)")
+    model: Literal["igrf", "dipole"] = param("igrf", doc="field model: IGRF-14 to degree 13, or its degree 1 "
+                                             "alone (a tilted dipole); both with secular variation")
     residual_dipole_am2: list[float] = param([0.0, 0.0, 0.0], length=3, doc="the bus's residual dipole, body axes")
 
 
@@ -77,14 +78,15 @@ class MagnetorquerParams:
 @dataclass(kw_only=True)
 class EnvironmentParams:
     """The torques of the orbit on the bus and the momentum-management loop, updated every
-    update_period_s and held between updates (applied through MuJoCo's xfrc_applied)."""
+    update_period_s and held between updates at their midpoint extrapolation (applied through
+    MuJoCo's xfrc_applied)."""
 
     update_period_s: float = param(1.0, gt=0, le=600, doc="how often the torques are recomputed (a whole "
                                    "multiple of sim.control_period_s)")
     gravity_gradient: bool = param(True, doc="the gravity-gradient torque 3 mu/r^3 (r x I r)")
     drag: DragParams | None = param(None, doc="aerodynamic drag (absent: none)")
     solar_pressure: SolarPressureParams | None = param(None, doc="solar radiation pressure (absent: none)")
-    sun: bool = param(True, doc="compute the Sun's direction (the Astronomical Almanac's formulae)")
+    sun: bool = param(True, doc="compute the Sun's direction (the IAU's Earth ephemeris, pyerfa)")
     eclipse: bool = param(True, doc="the Earth's cylindrical shadow switches the solar pressure off")
     magnetic_field: MagneticParams | None = param(None, doc="geomagnetic field and residual dipole (absent: none)")
     magnetometer: MagnetometerParams | None = param(None, doc="the magnetometer the desaturation reads "

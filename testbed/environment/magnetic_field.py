@@ -1,33 +1,33 @@
-"""The geomagnetic field as a tilted dipole of IGRF-13's first-degree coefficients (epoch
-2020): B = B0 (R/r)^3 (3 (m . r_hat) r_hat - m), m = (g11, h11, g10) / B0 in Earth-fixed axes
-(Wertz, *Spacecraft Attitude Determination and Control*, eq. H-18), turned into ECI by the
-Greenwich mean sidereal angle (Vallado eq. 3-47)."""
+"""The geomagnetic field from the International Geomagnetic Reference Field (IGRF-14, the
+`ppigrf` package and the coefficient file its wheel ships): the full model to degree 13 with
+its secular variation, or its first degree alone (a tilted dipole, `model: dipole`), at ITRS
+positions; both on IGRF's reference sphere of 6371.2 km (docs/theory/environment.md)."""
 
 from __future__ import annotations
 
-import math
+import datetime
 
 import numpy as np
 
-from testbed.orbit.constants import EARTH_RADIUS_M, J2000_JD
-
-G10_T, G11_T, H11_T = -29404.8e-9, -1450.9e-9, 4652.5e-9   # IGRF-13, 2020.0
-DIPOLE_STRENGTH_T = math.sqrt(G10_T**2 + G11_T**2 + H11_T**2)
-DIPOLE_AXIS_ECEF = np.array([G11_T, H11_T, G10_T]) / DIPOLE_STRENGTH_T   # points to the south
+IGRF_SPAN_YEARS = (1900, 2030)   # IGRF-14: definitive and provisional models, secular variation to 2030
+DEGREES = {"igrf": 13, "dipole": 1}
 
 
-def greenwich_angle(jd: float) -> float:
-    """Greenwich mean sidereal angle [rad]: 280.46061837 + 360.98564736629 (jd - 2451545.0) deg."""
-    return math.radians((280.46061837 + 360.98564736629 * (jd - J2000_JD)) % 360.0)
+def field_itrs(r_itrs, when: np.datetime64, model: str = "igrf") -> np.ndarray:
+    """B [T], (N, 3), ITRS axes, at ITRS positions r_itrs (N, 3) [m], of the IGRF coefficients
+    at the UTC instant `when` (to degree 13, or 1 for the dipole): ppigrf's geocentric
+    (B_r, B_theta, B_phi) turned into Cartesian axes."""
+    import ppigrf  # here: it brings pandas (0.7 s), which only a run with a field needs
 
-
-def dipole_field(r_eci, jd: float) -> np.ndarray:
-    """B [T] in ECI at the ECI position r [m] and Julian date jd."""
-    theta = greenwich_angle(jd)
-    c, s = math.cos(theta), math.sin(theta)
-    m = np.array([c * DIPOLE_AXIS_ECEF[0] - s * DIPOLE_AXIS_ECEF[1],
-                  s * DIPOLE_AXIS_ECEF[0] + c * DIPOLE_AXIS_ECEF[1], DIPOLE_AXIS_ECEF[2]])
-    r = np.asarray(r_eci, float)
-    distance = float(np.linalg.norm(r))
-    u = r / distance
-    return DIPOLE_STRENGTH_T * (EARTH_RADIUS_M / distance) ** 3 * (3.0 * float(m @ u) * u - m)
+    r = np.atleast_2d(np.asarray(r_itrs, float))
+    radius = np.linalg.norm(r, axis=1)
+    colatitude = np.arccos(r[:, 2] / radius)
+    longitude = np.arctan2(r[:, 1], r[:, 0])
+    moment = datetime.datetime.fromisoformat(str(np.datetime64(when, "us")))
+    radial, south, east = (np.asarray(b, float).reshape(-1) * 1e-9 for b in ppigrf.igrf_gc(
+        radius / 1e3, np.degrees(colatitude), np.degrees(longitude), moment, max_degree=DEGREES[model]))
+    ct, st, cp, sp = np.cos(colatitude), np.sin(colatitude), np.cos(longitude), np.sin(longitude)
+    up = np.column_stack([st * cp, st * sp, ct])
+    theta_hat = np.column_stack([ct * cp, ct * sp, -st])
+    phi_hat = np.column_stack([-sp, cp, np.zeros_like(cp)])
+    return radial[:, None] * up + south[:, None] * theta_hat + east[:, None] * phi_hat

@@ -7,9 +7,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from testbed.environment.libration import fitted_frequencies, lvlh_angles, pitch_frequency, roll_yaw_frequencies
 from testbed.metrics import metric
+from testbed.orbit.config import circular_rate
 from testbed.recording.reductions import _OfSignal
-
 
 
 @dataclass(frozen=True)
@@ -73,3 +74,36 @@ class DipoleUse(_OfSignal):
 def peak_dipole_use(run) -> float:
     """max_t max_i |m_i| / m_max,i: the magnetorquers' largest share of their dipole limit (<= 1)."""
     return run.reduced(_dipole_use(run.scenario)[0])
+
+
+def _librating(scenario) -> bool:
+    """An uncontrolled rigid body of principal inertia under the gravity gradient alone, on a
+    Keplerian circular orbit: the case the closed forms describe."""
+    o, e = scenario.orbit, scenario.environment
+    return (o is not None and o.tle is None and o.eccentricity == 0.0 and not o.j2 and e is not None
+            and e.gravity_gradient and e.drag is None and e.solar_pressure is None and e.magnetic_field is None
+            and scenario.stages["law"][0] == "none" and hasattr(scenario.model, "inertia_kg_m2"))
+
+
+def _libration(run):
+    """(the measured, the closed-form) pitch and roll-yaw frequencies of the run [rad/s]."""
+    t = run.recorder.time
+    roll, pitch, yaw = lvlh_angles(run.recorder["truth/quat_lvlh"]).T
+    inertia = run.scenario.model.inertia_kg_m2
+    n = circular_rate(run.scenario.orbit.semi_major_axis_km * 1e3)
+    return ((fitted_frequencies(t, [pitch], 1), fitted_frequencies(t, [roll, yaw], 2)),
+            (pitch_frequency(inertia, n), roll_yaw_frequencies(inertia, n)))
+
+
+@metric("pitch_libration_error_rel", applies=_librating, uses=("truth/quat_lvlh",))
+def pitch_libration_error_rel(run) -> float:
+    """|w_pitch / (n sqrt(3 (Ix - Iz) / Iy)) - 1|: the fitted pitch libration against its closed form."""
+    (pitch, _), (expected, _) = run.shared("libration", lambda: _libration(run))
+    return float(abs(pitch[0] / expected - 1.0))
+
+
+@metric("roll_yaw_libration_error_rel", applies=_librating, uses=("truth/quat_lvlh",))
+def roll_yaw_libration_error_rel(run) -> float:
+    """max over the two roll-yaw modes of |w_fit / w_closed_form - 1| (Wie eq. 7.25)."""
+    (_, roll_yaw), (_, expected) = run.shared("libration", lambda: _libration(run))
+    return float(np.max(np.abs(roll_yaw / expected - 1.0)))

@@ -2,29 +2,30 @@
 periods) the orbit's state at the plant's time, the Sun and the shadow, the field, each
 torque the scenario switches on, and the magnetorquers' dipole from the desaturation law;
 their sum is written into MuJoCo's `xfrc_applied` of the bus (world axes), held until the
-next update. The orbit is read from its own grid (testbed.orbit.propagation): the attitude
+next update at its value extrapolated to the period's midpoint (midpoint_hold.py). The orbit is read from its own grid (testbed.orbit.propagation): the attitude
 never changes it. Every value is recorded with the truth (`truth/orbit_position`, ...,
 docs/theory/environment.md "Trace")."""
 
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 
-from testbed.environment.atmosphere import VALID_ALTITUDE_KM, MsisDensity, exponential_density
+from testbed.environment.along_orbit import AlongOrbit
+from testbed.environment.atmosphere import VALID_ALTITUDE_KM, MsisDensity
 from testbed.environment.desaturation import desaturation_dipole
 from testbed.environment.facets import Facets
 from testbed.environment.gravity_gradient import gravity_gradient_torque
-from testbed.environment.magnetic_field import dipole_field, greenwich_angle
+from testbed.environment.magnetic_field import IGRF_SPAN_YEARS
+from testbed.environment.midpoint_hold import MidpointHold
 from testbed.errors import InputError
 from testbed.math.cross import cross3
 from testbed.math.quaternion import quat_conj, quat_mul, quat_to_matrix
 from testbed.orbit.config import initial_in_eci
 from testbed.orbit.constants import AU_M, EARTH_RADIUS_M, EARTH_RATE_RAD_S, SOLAR_PRESSURE_1AU_N_M2
 from testbed.orbit.frames import lvlh_quat
-from testbed.orbit.sun import in_cylindrical_shadow, sun_position
+from testbed.orbit.sun import in_cylindrical_shadow
 from testbed.plant import SimulationDiverged
 from testbed.scenario.schema import whole_multiple
 
@@ -42,8 +43,6 @@ class Surroundings:
     """The orbit and the environment of one plant (see the module doc)."""
 
     def __init__(self, orbit_params, params, plant, sim):
-        self.orbit = orbit_params.propagator()
-        self.start_jd = orbit_params.start_jd
         self.params = params
         self.bus_id = plant.bus.bus_body_id
         self.wrench = plant.data.xfrc_applied[self.bus_id]
@@ -55,30 +54,48 @@ class Surroundings:
             self.period = params.update_period_s
         self.next_time = 0.0
         self.signals: dict[str, np.ndarray] = {}
-        self._check_fit(orbit_params, plant)
+        self.epoch = orbit_params.epoch()
+        self._check_fit(orbit_params, plant, sim)
         p = params
         if p is not None and (p.drag is not None or p.solar_pressure is not None):
             half = p.facet_half_size_m or plant.scene()["bus_half_size"]
             self.facets = Facets(half, p.centre_of_pressure_offset_m)
-        self.density = None
+        density = None
         if p is not None and p.drag is not None:
-            self.density = (MsisDensity(p.drag.f107_sfu, p.drag.ap) if p.drag.atmosphere == "nrlmsis"
-                            else None)
+            density = (MsisDensity(p.drag.f107_sfu, p.drag.ap) if p.drag.atmosphere == "nrlmsis"
+                       else "exponential")
+        self.along = AlongOrbit(orbit_params.propagator(), self.epoch, self.period,
+                                int(sim.duration_s / self.period + 1e-9),
+                                sun=p is not None and p.sun, density_model=density,
+                                field_model=None if p is None or p.magnetic_field is None else p.magnetic_field.model)
         self.noise = None
         if p is not None and p.magnetometer is not None and p.magnetometer.noise_t > 0:
             self.noise = np.random.default_rng(p.magnetometer.seed)
         self.dipole = ZERO3
         self.applied_world = np.zeros(6)  # the wrench held on the bus until the next update
+        # the environment's torque (world axes) and the field the magnetorquers' held dipole
+        # turns in (body axes), each held at its extrapolated midpoint value (midpoint_hold.py)
+        self.torque_hold, self.field_hold = MidpointHold(self.period), MidpointHold(self.period)
+        self.shadow = None
 
-    def _check_fit(self, orbit_params, plant) -> None:
-        """Refuse, before the run, magnetorquers with no momentum to unload, and an orbit the drag
-        model is not valid at."""
-        torquers = None if self.params is None else self.params.magnetorquers
+    def _check_fit(self, orbit_params, plant, sim) -> None:
+        """Refuse, before the run, magnetorquers with no momentum to unload, an orbit the drag
+        model is not valid at, or a run outside the field model's years."""
+        if self.params is None:
+            return
+        torquers = self.params.magnetorquers
         if torquers is not None and torquers.desaturation and not plant.holds_internal_momentum:
             raise InputError("environment.magnetorquers", "the desaturation law unloads a momentum device "
                              "(rotors, CMGs), and this model holds none: its dipole would stay zero "
                              "(desaturation: false flies idle magnetorquers)")
-        if self.params is None or self.params.drag is None:
+        if self.params.magnetic_field is not None:
+            first, last = (self.epoch.utc_datetime64(t).astype("datetime64[Y]").astype(int) + 1970
+                           for t in (0.0, sim.duration_s))
+            low, high = IGRF_SPAN_YEARS
+            if first < low or last >= high:
+                raise InputError("orbit.epoch_utc", f"the run ({first}-{last}) is outside IGRF-14's years "
+                                 f"{low}-{high - 1}, which environment.magnetic_field needs")
+        if self.params.drag is None:
             return
         perigee, apogee = orbit_params.perigee_apogee_m()
         low, high = VALID_ALTITUDE_KM
@@ -101,7 +118,8 @@ class Surroundings:
 
     def _update(self, t: float, plant) -> None:
         p = self.params
-        r, v = self.orbit.state(t)
+        here = self.along.at(t)
+        r, v = here["r"], here["v"]
         q = plant.quat()
         to_world = quat_to_matrix(q)
         r_body = to_world.T @ r
@@ -109,14 +127,15 @@ class Surroundings:
         signals = {"orbit_position": r, "orbit_velocity": v,
                    "quat_lvlh": relative if relative[0] >= 0 else -relative}  # one sign: a continuous trace
         total = np.zeros(3)
+        magnetorquer_world = ZERO3
+        shadow = None
         if p is not None:
-            jd = self.start_jd + t / 86400.0
             if p.gravity_gradient:
                 torque = gravity_gradient_torque(r_body, plant.bus.system_inertia(plant.data))
                 signals["torque_gravity_gradient"] = torque
                 total = total + torque
             if p.sun:
-                sun = sun_position(jd)
+                sun = here["sun"]
                 shadow = p.eclipse and in_cylindrical_shadow(r, sun)
                 signals["eclipse"] = np.array([1.0 if shadow else 0.0])
                 to_sun = sun - r
@@ -129,50 +148,43 @@ class Surroundings:
                     signals["torque_solar_pressure"] = torque
                     total = total + torque
             if p.drag is not None:
-                torque = self._drag(r, v, to_world, jd, t)
+                # the air turns with the Earth: v_rel = v - omega_E pole x r
+                v_rel = v - EARTH_RATE_RAD_S * cross3(here["pole"], r)
+                torque = self.facets.drag_torque(to_world.T @ v_rel, here["density"], p.drag.drag_coefficient)
                 signals["torque_drag"] = torque
                 total = total + torque
             if p.magnetic_field is not None:
-                total = total + self._magnetic(r, to_world, jd, plant, signals)
-        self.applied_world = np.concatenate([np.zeros(3), to_world @ total])  # (force, torque), world axes
+                field = to_world.T @ here["field"]
+                signals["magnetic_field"] = field
+                torque = cross3(np.asarray(p.magnetic_field.residual_dipole_am2, float), field)
+                signals["torque_residual_dipole"] = torque
+                total = total + torque
+                if p.magnetorquers is not None:
+                    dipole = self._desaturation(field, plant, signals)
+                    magnetorquer_world = to_world @ cross3(dipole, self.field_hold(t, field))
+        # a step of the solar pressure into or out of the shadow is held as it is, not extrapolated
+        smooth = shadow == self.shadow
+        self.shadow = shadow
+        applied = self.torque_hold(t, to_world @ total, smooth) + magnetorquer_world
+        self.applied_world = np.concatenate([ZERO3, applied])  # (force, torque), world axes
         self.wrench[:] = self.applied_world
-        signals["torque_environment"] = total
+        signals["torque_environment"] = to_world.T @ applied  # what is held over the coming period
         self.signals = signals
 
-    def _drag(self, r, v, to_world, jd: float, t: float) -> np.ndarray:
-        """Facet drag in the air co-rotating with the Earth: v_rel = v - omega_E z x r."""
-        altitude_km = (float(np.linalg.norm(r)) - EARTH_RADIUS_M) / 1e3
-        if self.density is None:
-            density = exponential_density(altitude_km)
-        else:
-            theta = greenwich_angle(jd)
-            lon = math.degrees(math.atan2(r[1], r[0]) - theta)
-            lat = math.degrees(math.asin(r[2] / np.linalg.norm(r)))
-            when = np.datetime64("2000-01-01T12:00:00") + np.timedelta64(int(round((jd - 2451545.0) * 86400e3)), "ms")
-            density = self.density(when, (lon + 180.0) % 360.0 - 180.0, lat, altitude_km)
-        v_rel = v - EARTH_RATE_RAD_S * np.array([-r[1], r[0], 0.0])
-        return self.facets.drag_torque(to_world.T @ v_rel, density, self.params.drag.drag_coefficient)
-
-    def _magnetic(self, r, to_world, jd: float, plant, signals) -> np.ndarray:
-        """Residual-dipole and magnetorquer torques m x B (body axes); the magnetometer's
-        reading and the desaturation law's dipole, held until the next update."""
+    def _desaturation(self, field, plant, signals) -> np.ndarray:
+        """The magnetorquers' dipole (body axes) [A m^2], held until the next update: the
+        desaturation law's on the magnetometer's reading of the field (body axes) [T]; the
+        torque it makes at the field's instant value is recorded."""
         p = self.params
-        field = to_world.T @ dipole_field(r, jd)
-        signals["magnetic_field"] = field
-        torque = cross3(np.asarray(p.magnetic_field.residual_dipole_am2, float), field)
-        signals["torque_residual_dipole"] = torque
-        if p.magnetorquers is not None:
-            measured = field if self.noise is None else field + self.noise.normal(0.0, p.magnetometer.noise_t, 3)
-            signals["magnetometer"] = measured
-            m = p.magnetorquers
-            if m.desaturation:
-                self.dipole = desaturation_dipole(plant.internal_momentum_body(), np.asarray(m.target_momentum_nms),
-                                                  measured, m.gain_1_s, m.max_dipole_am2)
-            signals["magnetorquer_dipole"] = self.dipole
-            magnetorquer = cross3(self.dipole, field)
-            signals["torque_magnetorquer"] = magnetorquer
-            torque = torque + magnetorquer
-        return torque
+        measured = field if self.noise is None else field + self.noise.normal(0.0, p.magnetometer.noise_t, 3)
+        signals["magnetometer"] = measured
+        m = p.magnetorquers
+        if m.desaturation:
+            self.dipole = desaturation_dipole(plant.internal_momentum_body(), np.asarray(m.target_momentum_nms),
+                                              measured, m.gain_1_s, m.max_dipole_am2)
+        signals["magnetorquer_dipole"] = self.dipole
+        signals["torque_magnetorquer"] = cross3(self.dipole, field)
+        return self.dipole
 
 
 def prepare(scenario, plant):

@@ -17,6 +17,7 @@ from testbed.orbit.constants import EARTH_RADIUS_M, MU_EARTH_M3_S2
 from testbed.orbit.elements import state_from_elements
 from testbed.orbit.frames import lvlh_quat, lvlh_rate
 from testbed.orbit.propagation import GravityIntegrator, Orbit, Sgp4Source
+from testbed.orbit.time_scales import Epoch, utc_parts
 from testbed.scenario.schema import join, param
 
 ORBIT_PATH = "orbit"
@@ -61,7 +62,7 @@ class OrbitParams:
         if perigee_km * 1e3 <= EARTH_RADIUS_M:
             raise InputError(join(path, "semi_major_axis_km"), f"the perigee radius {perigee_km:.6g} km is inside "
                              f"the Earth (radius {EARTH_RADIUS_M / 1e3:g} km)")
-        epoch_jd(self.epoch_utc, join(path, "epoch_utc"))
+        epoch_parts(self.epoch_utc, join(path, "epoch_utc"))
 
     def check_propagates(self, path: str, times) -> None:
         """A TLE's SGP4 propagates to each of `times` [s] from t = 0, else bad input naming the field
@@ -71,19 +72,19 @@ class OrbitParams:
         if self.tle is None:
             return
         own_epoch = self.epoch_utc == OrbitParams.__dataclass_fields__["epoch_utc"].default
+        utc1, utc2 = self.epoch().utc
         for t in times:
-            error, _, _ = self.satrec.sgp4(self.start_jd, t / 86400.0)
+            error, _, _ = self.satrec.sgp4(utc1, utc2 + t / 86400.0)
             if error:
                 field = join(path, "tle" if own_epoch else "epoch_utc")
                 raise InputError(field, f"SGP4 cannot propagate the TLE to t = {t:g} s "
                                  f"({SGP4_ERRORS.get(error, f'error {error}')})")
 
-    @property
-    def start_jd(self) -> float:
-        """Julian date (UTC) of t = 0."""
+    def epoch(self) -> Epoch:
+        """The UTC instant of t = 0 as a two-part Julian date (a TLE's own, kept as its two parts)."""
         if self.tle is not None and self.epoch_utc == OrbitParams.__dataclass_fields__["epoch_utc"].default:
-            return self.satrec.jdsatepoch + self.satrec.jdsatepochF
-        return epoch_jd(self.epoch_utc, join(ORBIT_PATH, "epoch_utc"))
+            return Epoch(self.satrec.jdsatepoch, self.satrec.jdsatepochF)
+        return Epoch(*epoch_parts(self.epoch_utc, join(ORBIT_PATH, "epoch_utc")))
 
     def perigee_apogee_m(self) -> tuple[float, float]:
         """Perigee and apogee radii [m] (of the TLE's mean elements when one is given)."""
@@ -102,7 +103,7 @@ class OrbitParams:
     def propagator(self) -> Orbit:
         """A fresh `Orbit` of this block: each reader owns one (they agree: the grid is the same)."""
         if self.tle is not None:
-            return Orbit(Sgp4Source(self.satrec, self.start_jd), self.step_s)
+            return Orbit(Sgp4Source(self.satrec, self.epoch()), self.step_s)
         return Orbit(GravityIntegrator(*self.initial_state(), j2=self.j2), self.step_s)
 
 
@@ -128,15 +129,16 @@ def parse_tle(lines, path: str):
     return satrec
 
 
-def epoch_jd(text: str, path: str) -> float:
-    """Julian date of an ISO 8601 UTC time (no zone: UTC)."""
+def epoch_parts(text: str, path: str) -> tuple[float, float]:
+    """Two-part UTC Julian date (day, fraction) of an ISO 8601 time (no zone: UTC)."""
     try:
         moment = datetime.fromisoformat(str(text))
     except ValueError:
         raise InputError(path, f"is not an ISO 8601 date and time: {quoted(text)}") from None
-    if moment.tzinfo is None:
-        moment = moment.replace(tzinfo=timezone.utc)
-    return 2440587.5 + moment.timestamp() / 86400.0
+    if moment.tzinfo is not None:
+        moment = moment.astimezone(timezone.utc)
+    return utc_parts(moment.year, moment.month, moment.day, moment.hour, moment.minute,
+                     moment.second + moment.microsecond * 1e-6)
 
 
 def initial_in_eci(params: OrbitParams, initial):

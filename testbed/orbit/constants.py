@@ -6,4 +6,3 @@ J2 = 1.08262668e-3                  # second zonal harmonic (EGM2008, unnormalis
 EARTH_RATE_RAD_S = 7.292115e-5      # Earth rotation rate (IERS)
 AU_M = 1.495978707e11               # astronomical unit
 SOLAR_PRESSURE_1AU_N_M2 = 4.56e-6   # solar radiation pressure at 1 AU on an absorbing surface (1361 W/m^2 / c)
-J2000_JD = 2451545.0                # Julian date of J2000.0 (2000-01-01 12:00 TT, taken as UTC here)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from testbed.orbit.earth_rotation import teme_to_gcrs
 from testbed.orbit.gravity import acceleration
 
 
@@ -35,20 +36,22 @@ class GravityIntegrator:
 
 
 class Sgp4Source:
-    """States of a TLE by SGP4 (the `sgp4` package; TEME frame taken as ECI), from its epoch."""
+    """States of a TLE by SGP4 (the `sgp4` package) from the run's epoch (a two-part UTC date,
+    testbed.orbit.time_scales.Epoch), turned from SGP4's TEME into the GCRS (earth_rotation.py)."""
 
-    def __init__(self, satrec, start_jd: float):
-        self.satrec, self.start_jd = satrec, start_jd
+    def __init__(self, satrec, epoch):
+        self.satrec, self.epoch = satrec, epoch
 
     def states(self, step: float):
         k = 0
         while True:
             seconds = k * step
             day = seconds / 86400.0
-            error, r, v = self.satrec.sgp4(self.start_jd, day)
+            error, r, v = self.satrec.sgp4(self.epoch.utc[0], self.epoch.utc[1] + day)
             if error:
                 raise ValueError(f"SGP4 error {error} at t = {seconds:g} s (the orbit decayed or diverged)")
-            yield tuple(1e3 * np.asarray(r)) + tuple(1e3 * np.asarray(v))
+            to_gcrs = 1e3 * teme_to_gcrs(self.epoch, seconds)
+            yield tuple(to_gcrs @ r) + tuple(to_gcrs @ v)
             k += 1
 
 

@@ -1,27 +1,26 @@
-"""The Sun's position from the Astronomical Almanac's low-precision formulae (about 0.01 deg
-from 1950 to 2050; The Astronomical Almanac, section C, "Low precision formulas for the Sun")
-and the Earth's cylindrical shadow."""
+"""The Sun's geocentric position from the IAU's Earth ephemeris (pyerfa's epv00, VSOP2000
+fitted, a few km) in the GCRS, and the Earth's cylindrical shadow."""
 
 from __future__ import annotations
 
-import math
-
+import erfa
 import numpy as np
 
-from testbed.orbit.constants import AU_M, EARTH_RADIUS_M, J2000_JD
+from testbed.orbit.constants import AU_M, EARTH_RADIUS_M
+from testbed.orbit.time_scales import SECONDS_PER_DAY, Epoch
 
 
-def sun_position(jd: float) -> np.ndarray:
-    """Geocentric Sun position, mean equator and equinox of date [m], at Julian date `jd`:
-    L = 280.460 + 0.9856474 n, g = 357.528 + 0.9856003 n (deg, n = jd - 2451545.0),
-    lambda = L + 1.915 sin g + 0.020 sin 2g, eps = 23.439 - 4e-7 n,
-    R = 1.00014 - 0.01671 cos g - 0.00014 cos 2g [AU]."""
-    n = jd - J2000_JD
-    g = math.radians((357.528 + 0.9856003 * n) % 360.0)
-    lam = math.radians((280.460 + 0.9856474 * n) % 360.0 + 1.915 * math.sin(g) + 0.020 * math.sin(2 * g))
-    eps = math.radians(23.439 - 4e-7 * n)
-    distance = (1.00014 - 0.01671 * math.cos(g) - 0.00014 * math.cos(2 * g)) * AU_M
-    return distance * np.array([math.cos(lam), math.cos(eps) * math.sin(lam), math.sin(eps) * math.sin(lam)])
+def sun_positions(epoch: Epoch, times) -> np.ndarray:
+    """Geometric geocentric Sun positions (N, 3) [m], GCRS axes, at run times [s]: minus the
+    Earth's heliocentric position of erfa.epv00 at the middle time, moved along its velocity
+    (over half a span of 6 h the path's curvature, 0.5", lies along the line of sight: the
+    direction is within 0.01"; aberration, 20", is left out)."""
+    times = np.atleast_1d(np.asarray(times, float))
+    middle = 0.5 * (times[0] + times[-1])
+    heliocentric, _ = erfa.epv00(*epoch.tt(middle))
+    position = np.asarray(heliocentric["p"], float)
+    velocity = np.asarray(heliocentric["v"], float) / SECONDS_PER_DAY  # AU/s
+    return -AU_M * (position + (times - middle)[:, None] * velocity)
 
 
 def in_cylindrical_shadow(r, sun, radius: float = EARTH_RADIUS_M) -> bool:
