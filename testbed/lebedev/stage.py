@@ -285,8 +285,8 @@ class LebedevEstimator:
 
     @contextlib.contextmanager
     def _diverging(self):
-        """An overflow while integrating the observer is its divergence, said so with the size of
-        the estimate it started from (the run's floating-point errors raise: testbed.runner)."""
+        """An overflow while integrating the observer or testing it is its divergence, said so with
+        the size of the estimate it started from (the run's floating-point errors raise: testbed.runner)."""
         before = self.observer.z.copy()
         try:
             yield
@@ -302,8 +302,8 @@ class LebedevEstimator:
             h = t - self._t_prev
             with self._diverging():
                 self._step(y, h, command)
-            if self.growth is not None and self._t_prev >= self.startup:
-                self.growth.advance(t, h, self.observer.omega_estimate())
+                if self.growth is not None and self._t_prev >= self.startup:
+                    self.growth.advance(t, h, self.observer.omega_estimate())
         self._t_prev, self._y_prev = t, y
         obs = self.observer
         innovation = y - obs.C[2] * obs.spin_rate - obs.C @ obs.z
