@@ -8,7 +8,8 @@
     again = testbed.read("runs/x.rrd")                   # the same structure, from the file
 
 Bad input raises `testbed.InputError` (its `field` names the scenario key); a run that
-diverges or whose stage fails returns status "diverged" or "error" with the trace so far.
+diverges, whose method leaves its validity or whose stage fails returns status "diverged",
+"method_failed" or "error" with the trace so far.
 The command line (`testbed run | check | inspect`) is built on these functions.
 """
 
@@ -19,7 +20,7 @@ from pathlib import Path
 
 from testbed.errors import InputError
 from testbed.math.validation import existing_file
-from testbed.runner import RunResult, run_scenario
+from testbed.runner import STATUSES, RunResult, run_scenario
 from testbed.scenario.loading import Scenario, load_scenario, parse
 from testbed.scenario.yaml_reading import as_loaded
 from testbed.recording.output_paths import CheckedPath, output_path
@@ -106,7 +107,7 @@ def _is_result(stored) -> bool:
 
     return (isinstance(stored, dict) and isinstance(stored.get("scenario"), str)
             and number(stored.get("sim_s")) and number(stored.get("wall_s"))
-            and stored.get("status") in ("ok", "diverged", "error")
+            and stored.get("status") in STATUSES
             and (stored.get("error") is None or isinstance(stored.get("error"), str))
             and isinstance(stored.get("metrics"), dict)
             and all(isinstance(k, str) and (number(v) or v is None) for k, v in stored["metrics"].items())

@@ -206,11 +206,24 @@ def build(slot: str, name: str, params, ctx: StageContext):
 
 
 class StageFailed(RuntimeError):
-    """A stage raised, or returned something that is not a dict of finite arrays of steady shape."""
+    """A stage raised, or returned something that is not a dict of finite arrays of steady shape;
+    `method`: the stage raised MethodFailed, its method left the conditions it is valid in."""
 
-    def __init__(self, time: float, slot: str, name: str, reason: str):
-        self.time, self.slot, self.name = time, slot, name
-        super().__init__(f"stage {slot} {name!r} failed at t = {time:.6g} s: {reason}")
+    def __init__(self, time: float, slot: str, name: str, reason: str, method: bool = False):
+        self.time, self.slot, self.name, self.method = time, slot, name, method
+        what = "left its validity" if method else "failed"
+        super().__init__(f"stage {slot} {name!r} {what} at t = {time:.6g} s: {reason}")
+
+
+class MethodFailed(Exception):
+    """Raised by a stage whose method has left the conditions it is valid in (an observer whose
+    error dynamics diverge, a filter without fixes for longer than its error model holds): the
+    method's own limit, not a fault of the code. `reason` names the criterion and its numbers;
+    the run ends with status "method_failed" (testbed.runner.RunResult)."""
+
+    def __init__(self, reason: str):
+        self.reason = reason
+        super().__init__(reason)
 
 
 # Keys whose shape the slot's interface fixes (see the module doc); a command key's shape
@@ -379,7 +392,10 @@ class Pipeline:
 
     def _failed(self, t: float, slot: str, exc: BaseException) -> StageFailed:
         stage_object = getattr(self, slot)
-        return StageFailed(t, slot, getattr(stage_object, "type_name", type(stage_object).__name__), described(exc))
+        name = getattr(stage_object, "type_name", type(stage_object).__name__)
+        if isinstance(exc, MethodFailed):
+            return StageFailed(t, slot, name, exc.reason, method=True)
+        return StageFailed(t, slot, name, described(exc))
 
     def sense(self, t: float, plant) -> None:
         """Sensor and estimator at time t: the first half of `tick`, and alone a sample between

@@ -75,12 +75,17 @@ class RunData:
         return self._shared[key]
 
 
+# what a run ended as (RunResult.status)
+STATUSES = ("ok", "diverged", "method_failed", "error")
+
+
 @dataclass
 class RunResult:
     """The outcome of a run (or of an `.rrd` read back): status, metrics, checks and the trace.
 
-    status: "ok", "diverged" (MuJoCo hit a bad state) or "error" (a stage raised or returned
-    bad output); error: the one-line reason, else None; metrics: name -> value; checks: one
+    status: "ok", "diverged" (MuJoCo hit a bad state), "method_failed" (a stage's method left
+    the conditions it is valid in: testbed.pipeline.MethodFailed) or "error" (a stage raised or
+    returned bad output); error: the one-line reason, else None; metrics: name -> value; checks: one
     dict per check (name, value, limit, passed); trace: every recorded signal as numpy arrays
     (`result.trace["truth/omega"] -> (t, values)`); data: what the metrics saw (kept on request).
     """
@@ -280,7 +285,7 @@ class RunInProgress:
         except SimulationDiverged as exc:
             self.status, self.error = "diverged", str(exc)
         except StageFailed as exc:
-            self.status, self.error = "error", str(exc)
+            self.status, self.error = "method_failed" if exc.method else "error", str(exc)
         except FloatingPointError as exc:  # the plant's own read-outs overflowed: the state blew up
             self.status, self.error = "diverged", str(SimulationDiverged(self.plant.time,
                                                                          f"{exc} in the plant's read-outs"))

@@ -168,3 +168,27 @@ def test_a_late_tracker_sample_is_filtered_at_its_own_time():
     # the sample sigma (about 2 % standard error across, 4 % about z) and the filter's own (exact, 1 %)
     assert np.std(errors, axis=0) == pytest.approx(sigma, rel=0.1)
     assert bounds[-1] == pytest.approx(sigma, rel=0.01)
+
+
+def test_coasting_past_the_error_models_bound_ends_the_run_when_the_gyro_model_says():
+    """Issue 37: a tracker out from 200 s for good and a gyro ten times noisier (ARW 4.4e-4): the
+    filter coasts; the run ends (method_failed) when an axis's attitude 3-sigma passes
+    sqrt(2 sigma_m). Independent number: the time the validation-5 growth law, from the filter's
+    P at the outage's start, reaches that bound (well conditioned: within two gyro samples)."""
+    arw = 10 * ARW
+    result = testbed.run("attitude_outage_mekf", overrides=[
+        "sim.duration_s=600", f"pipeline.sensor.gyro.angle_random_walk_rad_sqrt_s={arw}",
+        "pipeline.sensor.star_tracker.outages_s=[[200, 1000]]"])
+    assert result.status == "method_failed" and "no star tracker fix for" in result.error, result.error
+    t, flat = result.trace["estimator/covariance"]
+    start = flat[np.searchsorted(t, 199.95) - 1].reshape(6, 6)   # the last update, 199.9 s
+    bound = np.sqrt(2.0 * np.radians(np.array([5.0, 5.0, 40.0]) / 3600.0))   # boresight along body z
+    elapsed = np.linspace(0.0, 400.0, 400_001)
+    first = []
+    for axis in range(3):
+        grown = (start[axis, axis] - 2 * elapsed * start[axis, axis + 3] + elapsed**2 * start[axis + 3, axis + 3]
+                 + arw**2 * elapsed + RRW**2 * elapsed**3 / 3)
+        first.append(elapsed[np.argmax(9.0 * grown > bound[axis] ** 2)])
+    assert result.sim_s - 199.9 == pytest.approx(min(first), abs=2 * DT)
+    ok = testbed.run("attitude_outage_mekf", overrides=["sim.duration_s=300"])   # the shipped 60 s: well inside
+    assert ok.status == "ok"

@@ -36,8 +36,9 @@ def test_reorient_campaign_first_slews_with_both_laws(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_lebedev_spinup_campaign_first_cases(tmp_path, capsys):
-    """Case 0 (w_y(0) = -0.12 deg/s) spins up and passes; case 1 (w_y(0) = 0.43 deg/s) ends in the
-    observer's overflow after the control switches on at 150 s, as in the full campaign."""
+    """Case 0 (w_y(0) = -0.12 deg/s) spins up and passes; case 1 (w_y(0) = 0.43 deg/s) ends when
+    the observer diverges after the control switches on at 150 s, as in the full campaign, its
+    row naming that cause (before issue 37: a FloatingPointError in the observer)."""
     out = ["--out", str(tmp_path)]
     assert main(["campaign", "lebedev_spinup_campaign", "--case", "0", "--json", *out]) == 0
     first = json.loads(capsys.readouterr().out)
@@ -45,5 +46,7 @@ def test_lebedev_spinup_campaign_first_cases(tmp_path, capsys):
     assert first["initial.omega_deg_s[1]"] == pytest.approx(-0.1156, abs=1e-4)
     assert main(["campaign", "lebedev_spinup_campaign", "--case", "1", "--json", *out]) == 1
     second = json.loads(capsys.readouterr().out)
-    assert second["status"] == "error" and "estimator 'lebedev' failed at t = 1" in second["error"]
+    assert second["status"] == "method_failed" and "estimator 'lebedev' left its validity at t = 1" in second["error"]
+    assert "the observer diverged" in second["cause"] and "FloatingPointError" not in second["cause"]
+    assert first["cause"] == ""
     assert (tmp_path / "case0000.rrd").is_file() and (tmp_path / "case0001.rrd").is_file()

@@ -9,7 +9,7 @@ import yaml
 
 from testbed.cli import main
 from testbed.campaign.cases import expand
-from testbed.campaign.rows import run_cases
+from testbed.campaign.rows import failure_cause, run_cases
 
 # A short planar case: free decay only (6 s), so each case costs a fraction of a second.
 BASE = {
@@ -57,7 +57,8 @@ def test_sweep_csv_parallel_equals_serial_and_a_diverging_case_stays_in_its_row(
     assert "3 cases, 2 passed, 1 failed" in capsys.readouterr().out
     rows = _rows(out / "mini_sweep.csv")
     assert [r["case"] for r in rows] == ["0", "1", "2"]
-    assert list(rows[0])[:6] == ["case", "pipeline.law.k", "status", "passed", "error", "wall_s"]
+    assert list(rows[0])[:7] == ["case", "pipeline.law.k", "status", "passed", "error", "cause", "wall_s"]
+    assert [r["cause"] == "" for r in rows] == [True, True, False] and rows[2]["cause"] == rows[2]["error"]
     for row, k in zip(rows[:2], (1.0, 4.0)):
         assert row["status"] == "ok" and row["passed"] == "True" and row["check:akor_eta_rel_err"] == "pass"
         # eq. 13 by hand: eta = sqrt(2 sqrt(k b11) + k b22) / 2 with b11 = 4, b22 = 1
@@ -73,6 +74,19 @@ def test_sweep_csv_parallel_equals_serial_and_a_diverging_case_stays_in_its_row(
         for key, value in ref.items():
             if key != "wall_s" and isinstance(value, float):
                 assert float(row[key]) == value or (math.isnan(value) and row[key] == "nan"), key
+
+
+def test_a_failed_case_names_its_cause():
+    """`cause`: a run that stopped early gives its error; one that ran to the end the checks it
+    failed, each with its value and limit; a passing one nothing (issue 37)."""
+    checks = [{"name": "spin_error_final_deg_s", "value": 0.3137, "limit": "<= 0.02", "passed": False},
+              {"name": "rate_limit_violations", "value": 0, "limit": "<= 0", "passed": True},
+              {"name": "momentum_drift_rel", "value": None, "limit": "<= 1e-08", "passed": False}]
+    assert failure_cause("ok", "", checks) == ("fails spin_error_final_deg_s = 0.314 (<= 0.02); "
+                                               "momentum_drift_rel = None (<= 1e-08)")
+    assert failure_cause("ok", "", checks[1:2]) == ""
+    stopped = "stage estimator 'lebedev' left its validity at t = 159.35 s: the observer diverged: ..."
+    assert failure_cause("method_failed", stopped, checks) == stopped
 
 
 def test_a_case_that_raises_is_reported_not_fatal(tmp_path):

@@ -1,7 +1,8 @@
 """Run the cases of a sweep or campaign on the engine (testbed.campaign.engine), one row each.
 
 A row is everything a case did, never an exception: `case`, the values set (a list of numbers
-as one column per component, `path[i]`), `status` (ok | diverged | error), `passed`, `error`,
+as one column per component, `path[i]`), `status` (ok | diverged | method_failed | error), `passed`, `error`,
+`cause` (why it failed: its error, or the checks it failed with their values),
 `wall_s`, the case's `seed`, derived columns (a misalignment angle), the values read back from
 the built plant and stages (`applied:path`, testbed.campaign.applied_values), every metric and every check
 (`check:NAME` pass/FAIL). A case whose read-back differs from what was set stops before its
@@ -22,7 +23,6 @@ from testbed.interrupts import from_a_signal
 from testbed.scenario.schema import is_number
 from testbed.campaign.cases import Case
 
-STATUSES = ("ok", "diverged", "error")  # a row's status: its run's (testbed.runner.RunResult) or error
 
 
 def flat(values: dict, prefix: str = "") -> dict:
@@ -39,12 +39,23 @@ def flat(values: dict, prefix: str = "") -> dict:
     return cells
 
 
+def failure_cause(status: str, error: str, checks: list[dict]) -> str:
+    """Why a case did not pass, on one line: a run that stopped early, its error (a diverged
+    plant, a method that left its validity, a stage's failure: testbed.runner.RunResult); a run
+    that ended, the checks it failed with their values and limits; "" when it passed."""
+    if status != "ok":
+        return error
+    failed = [f"{c['name']} = {c['value']:.3g} ({c['limit']})" if isinstance(c["value"], float)
+              else f"{c['name']} = {c['value']} ({c['limit']})" for c in checks if not c["passed"]]
+    return error_line("fails " + "; ".join(failed)) if failed else ""
+
+
 def case_row(case: Case, applied: dict, status: str = "", passed: bool = False, error: str = "",
-             wall_s: float | None = None, results: dict | None = None) -> dict:
+             wall_s: float | None = None, results: dict | None = None, cause: str | None = None) -> dict:
     """The row of `case` (module doc); `applied`: testbed.campaign.applied_values.applied_values, `results`:
-    the metrics and the `check:NAME` cells."""
+    the metrics and the `check:NAME` cells; `cause`: why it failed (`failure_cause`), by default its error."""
     return ({"case": case.index, **flat(case.values), "status": status, "passed": passed, "error": error,
-             "wall_s": wall_s, "seed": case.seed, **case.derived}
+             "cause": error if cause is None else cause, "wall_s": wall_s, "seed": case.seed, **case.derived}
             | flat({path: value for path, (value, _) in applied.items()}, "applied:") | (results or {}))
 
 
@@ -95,7 +106,7 @@ def run_case(case: Case, rrd: str | None = None, raises: tuple[type[BaseExceptio
     for name in GUARD_CHECKS:  # every row has the guard's columns, as the table does (empty: not judged)
         checks.setdefault(f"check:{name}", "")
     return case_row(case, applied, result.status, result.passed, result.error or "", result.wall_s,
-                    result.metrics | checks)
+                    result.metrics | checks, failure_cause(result.status, result.error or "", result.checks))
 
 
 def died_row(case: Case, reason: str) -> dict:

@@ -202,7 +202,8 @@ def open_table(out: Path, name: str, data: dict, cases, args):
     path of the wrong kind, a damaged table: testbed.campaign.table)."""
     from testbed.campaign.table import CampaignTable, fingerprint, merge_kinds
     from testbed.accuracy.guard import CHECK_NAMES as GUARD_CHECKS
-    from testbed.campaign.rows import STATUSES, expected_row, identity_cells
+    from testbed.campaign.rows import expected_row, identity_cells
+    from testbed.runner import STATUSES
     from testbed.recording.output_paths import file_stem, output_path
 
     for path in summary_files(out):
@@ -248,11 +249,6 @@ def _run_into(table, done: dict, cases, engine, rrd_dir: Path | None, args, case
         raise
 
 
-def _why(row: dict) -> str:
-    failed = [k.split(":", 1)[1] for k, v in row.items() if k.startswith("check:") and v == "FAIL"]
-    return row.get("error") or f"failed checks: {', '.join(failed)}"
-
-
 def _rerun_case(args) -> int:
     """`--case N`: case N alone, in this process, its trace written."""
     from testbed.campaign.rows import case_trace, run_case
@@ -271,9 +267,9 @@ def _rerun_case(args) -> int:
             print(json.dumps(row))
             return
         print(f"case {case.index} of {name} (seed {case.seed}): {row['status']}"
-              f"{'' if row['passed'] else ': ' + _why(row)}")
+              f"{'' if row['passed'] else ': ' + row['cause']}")
         for key, value in row.items():
-            if key not in ("case", "status", "passed", "error", "seed"):
+            if key not in ("case", "status", "passed", "error", "cause", "seed"):
                 print(f"  {key:44s} {value}")
         print(f"trace: {rrd}")
     return reported(EXIT_OK if row["passed"] else EXIT_FAILED, report)

@@ -34,7 +34,8 @@ from testbed.lebedev.momentum import check_momentum_observable, idle_polar_angle
 from testbed.math.cross import cross3
 from testbed.math.rk4 import check_rk4_stable
 from testbed.lebedev.observer import LebedevObserver, check_gains, check_observer_poles, lebedev_torque
-from testbed.pipeline import require_free_body, stage
+from testbed.lebedev.validity import ErrorGrowth
+from testbed.pipeline import MethodFailed, require_free_body, stage
 from testbed.scenario.schema import join, param
 
 # Relative size of products of inertia the principal-axis model (eq. 1.2) may ignore.
@@ -189,6 +190,12 @@ class LebedevEstimator:
         self._y_prev = 0.0
         self._command: tuple | None = None   # the cluster's held command (measured momentum)
         self._modelled: np.ndarray | None = None  # the H the model reached at the last sample
+        # the fixed-gain closed-loop observer's divergence test (testbed.lebedev.validity); the
+        # measured-momentum filter's convergence rests on its information, not on fixed poles
+        self.growth = None if self.momentum_key is not None else ErrorGrowth(
+            self.observer.inertia, self.observer.spin_rate,
+            np.zeros(3) if params.design_momentum_nms is None else params.design_momentum_nms,
+            self.observer.l_closed, self.observer.C)
 
     def _check_momentum(self, ctx, startup: float) -> None:
         """Refuse, before the run, momentum one gyro cannot work with: an idle cluster whose H(0)
@@ -265,18 +272,38 @@ class LebedevEstimator:
             self.observer.step(self._y_prev, torque / self.inertia, h, y_end, start, rate, compensated)
         self._modelled = start + h * rate
 
+    def _step(self, y: float, h: float, command) -> None:
+        """Integrate the observer over the interval of length h [s] that ends at the sample y."""
+        y_end = y if self.linear_hold else None
+        if self.momentum_key is not None and self.momentum_key in command:
+            self._step_measured(y_end, h, command)
+        elif self._t_prev < self.startup:
+            self.observer.startup_step(self._y_prev, h, y_end)                # eq. 3.1, body uncontrolled
+        else:
+            torque = np.asarray(command.get(self.torque_key, np.zeros(3)), float)
+            self.observer.step(self._y_prev, torque / self.inertia, h, y_end)  # eq. 4.6, u = M / I
+
+    @contextlib.contextmanager
+    def _diverging(self):
+        """An overflow while integrating the observer or testing it is its divergence, said so with
+        the size of the estimate it started from (the run's floating-point errors raise: testbed.runner)."""
+        before = self.observer.z.copy()
+        try:
+            yield
+        except FloatingPointError as exc:
+            with np.errstate(all="ignore"):   # its size may overflow a float's square too
+                size = np.degrees(np.linalg.norm(before))
+            raise MethodFailed(f"the observer diverged: its state overflowed ({exc}) integrating from "
+                               f"|w_hat - Omega e_z| = {size:.3g} deg/s") from exc
+
     def estimate(self, t, measurement, command):
         y = float(np.asarray(measurement["y"])[0])
         if self._t_prev is not None:
             h = t - self._t_prev
-            y_end = y if self.linear_hold else None
-            if self.momentum_key is not None and self.momentum_key in command:
-                self._step_measured(y_end, h, command)
-            elif self._t_prev < self.startup:
-                self.observer.startup_step(self._y_prev, h, y_end)                # eq. 3.1, body uncontrolled
-            else:
-                torque = np.asarray(command.get(self.torque_key, np.zeros(3)), float)
-                self.observer.step(self._y_prev, torque / self.inertia, h, y_end)  # eq. 4.6, u = M / I
+            with self._diverging():
+                self._step(y, h, command)
+                if self.growth is not None and self._t_prev >= self.startup:
+                    self.growth.advance(t, h, self.observer.omega_estimate())
         self._t_prev, self._y_prev = t, y
         obs = self.observer
         innovation = y - obs.C[2] * obs.spin_rate - obs.C @ obs.z

@@ -8,7 +8,8 @@ known, fixed delay: the report's covariance holds the gyro noise over L). It is 
 sensor's published noise model. The first fix: `tracker` starts from the first tracker sample
 (a coarse fix of covariance initial_attitude_sigma_deg), `scenario` from the scenario's initial
 attitude turned by initial_attitude_error_deg; before a tracker fix it reports the scenario's
-initial attitude.
+initial attitude. A filter that held its attitude 3-sigma within `coast_bound` at an update
+and then coasts past it without a fix ends the run (MethodFailed): its error model no longer holds.
 
 Keys: `quat`, `omega` (gyro rate less the bias estimate), `bias` [rad/s], `attitude_sigma3`
 and `bias_sigma3` (3 √diag P), `covariance` (P row by row, 36), `innovation` [rad] and `nis`
@@ -26,12 +27,21 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.math.quaternion import quat_from_rotation_vector, quat_mul
 from testbed.mekf.filter import Mekf
-from testbed.pipeline import stage
+from testbed.pipeline import MethodFailed, stage
 from testbed.scenario.schema import join, param
 
 PATH = "pipeline.estimator"
 DEG_H = np.pi / 180.0 / 3600.0  # 1 deg/h [rad/s]
 NEEDS = ("tracker_covariance", "angle_random_walk", "rate_random_walk")
+
+
+def coast_bound(tracker_covariance) -> np.ndarray:
+    """Per body axis, the attitude 3-sigma [rad] up to which the MEKF's first-order error model
+    holds: composing rotations neglects 1/2 |d_theta|^2 (the second-order term), which stays
+    below the tracker's own noise sigma_m, the correction the update is built for, while
+    1/2 (3 sigma)^2 <= sigma_m, i.e. 3 sigma <= sqrt(2 sigma_m) (docs/theory/attitude_determination.md
+    "When the filter has coasted too long"). sigma_m per axis from R's diagonal [rad^2]."""
+    return np.sqrt(2.0 * np.sqrt(np.diag(np.asarray(tracker_covariance, float))))
 
 
 @dataclass(kw_only=True)
@@ -88,6 +98,8 @@ class MekfEstimator:
         self.pending = deque()  # (stamp, rate) of the gyro samples after self.time
         self.innovation, self.nis = np.zeros(3), np.zeros(1)
         self.statistics = {"settle_s": params.settle_s}
+        self.coast_bound = coast_bound(self.noise)
+        self.last_fix: float | None = None   # when the last update came, if the filter then held its bound
 
     def _advance(self, until: float) -> None:
         """Propagate the filter through the pending gyro samples up to time `until`."""
@@ -109,6 +121,19 @@ class MekfEstimator:
             time = stamp
         return ahead
 
+    def _check_coast(self, t: float, updated: float, sigma3) -> None:
+        """End the run (MethodFailed) when the filter, having held its attitude 3-sigma within
+        `coast_bound` at its last update, has coasted without a fix past it."""
+        if updated:
+            self.last_fix = t if np.all(sigma3 <= self.coast_bound) else None
+        elif self.last_fix is not None and np.any(sigma3 > self.coast_bound):
+            axis = int(np.argmax(sigma3 / self.coast_bound))
+            raise MethodFailed(
+                f"no star tracker fix for {t - self.last_fix:.6g} s: the attitude 3-sigma about body axis "
+                f"{'xyz'[axis]} reached {np.degrees(sigma3[axis]):.3g} deg, past the "
+                f"{np.degrees(self.coast_bound[axis]):.3g} deg the filter's first-order error model holds "
+                f"to (sqrt(2 sigma_tracker), docs/theory/attitude_determination.md)")
+
     def estimate(self, t, measurement, command):
         f = self.filter
         updated = 0.0
@@ -128,6 +153,7 @@ class MekfEstimator:
         self._advance(t - self.latency)  # no sample (an outage): the filter keeps up all the same
         now = self._predicted()
         p = now.covariance
+        self._check_coast(t, updated, 3.0 * np.sqrt(np.diag(p)[:3]))
         return {"quat": now.quat, "omega": measurement["gyro_rate"] - now.bias, "bias": now.bias,
                 "attitude_sigma3": 3.0 * np.sqrt(np.diag(p)[:3]), "bias_sigma3": 3.0 * np.sqrt(np.diag(p)[3:]),
                 "covariance": p.ravel(), "innovation": self.innovation, "nis": self.nis,

@@ -186,7 +186,7 @@ class Simulation:
 
     @property
     def status(self) -> str:
-        """"ok", "diverged" or "error", as `RunResult.status`."""
+        """"ok", "diverged", "method_failed" or "error", as `RunResult.status`."""
         return self._episode().status
 
     @property
