@@ -12,3 +12,11 @@ def logged_law(tmp_path_factory) -> str:
     path = tmp_path_factory.mktemp("plugins") / "logged_law.py"
     path.write_text(LOGGED_LAW)
     return str(path)
+
+
+@pytest.fixture(autouse=True)
+def _own_working_folder(tmp_path, monkeypatch):
+    """Every test runs in its own empty folder: a command's default output (runs/<file stem>.rrd)
+    lands there, never in the checkout, and one test's trace never meets another's of the same
+    file stem (a run refuses to replace the trace of another scenario file)."""
+    monkeypatch.chdir(tmp_path)

@@ -35,25 +35,30 @@ class AlongOrbit:
         """The row of the grid instant nearest t [s]."""
         k = int(round(t / self.period))
         if self._first is None or not self._first <= k < self._first + len(self._rows["r"]):
-            self._rows, self._first = self._block(k), k
+            # blocks on a fixed grid of instants, so a row is the same whatever the run's length
+            first = k - k % self.size
+            self._rows, self._first = self._block(first), first
         i = k - self._first
         return {name: values[i] for name, values in self._rows.items()}
 
     def _block(self, first: int) -> dict[str, np.ndarray]:
         count = max(1, min(self.size, self.last - first + 1))
-        times = (first + np.arange(count)) * self.period
+        # the slow quantities are taken at the middle of the whole block, even where the run ends
+        # inside it: a run's rows do not depend on its length
+        block_times = (first + np.arange(self.size)) * self.period
+        times = block_times[:count]
         states = [self.orbit.state(t) for t in times]
         r = np.array([s[0] for s in states])
         rows = {"r": r, "v": np.array([s[1] for s in states])}
         if self.sun:
-            rows["sun"] = sun_positions(self.epoch, times)
+            rows["sun"] = sun_positions(self.epoch, block_times)[:count]
         if not self.earth_fixed:
             return rows
-        to_itrs = gcrs_to_itrs(self.epoch, times)
+        to_itrs = gcrs_to_itrs(self.epoch, block_times)[:count]
         rows["pole"] = to_itrs[:, 2, :]
         r_itrs = np.einsum("nij,nj->ni", to_itrs, r)
         if self.field_model is not None:
-            middle = self.epoch.utc_datetime64(0.5 * (times[0] + times[-1]))
+            middle = self.epoch.utc_datetime64(0.5 * (block_times[0] + block_times[-1]))
             rows["field"] = np.einsum("nji,nj->ni", to_itrs, field_itrs(r_itrs, middle, self.field_model))
         if self.density_model is not None:
             longitude, latitude, height = erfa.gc2gd(1, r_itrs)   # 1: WGS-84

@@ -51,7 +51,7 @@ class OrbitParams:
             if self.altitude_km is not None or self.semi_major_axis_km is not None:
                 raise InputError(join(path, "tle"), "give a TLE or the elements, not both")
             self.satrec = parse_tle(self.tle, join(path, "tle"))
-            epoch_jd(self.epoch_utc, join(path, "epoch_utc"))
+            epoch_parts(self.epoch_utc, join(path, "epoch_utc"))
             self.check_propagates(path, (0.0, self.step_s))  # the grid's first states, read at t = 0
             return
         if (self.altitude_km is None) == (self.semi_major_axis_km is None):
