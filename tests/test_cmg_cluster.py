@@ -119,6 +119,11 @@ def test_unequal_rotor_momenta_scale_the_columns():
     ("model.array={preset: custom, units: [{gimbal_axis: [2, 0, 0], spin_axis: [0, 1, 0]}, "
      "{gimbal_axis: [0, 1, 0], spin_axis: [0, 0, 1]}, {gimbal_axis: [0, 0, 1], spin_axis: [1, 0, 0]}]}",
      "model.array.units[0].gimbal_axis"),
+    ("model.array={preset: custom, units: [{gimbal_axis: [1, 0, 0], spin_axis: [0, 1, 0]}, "
+     "{gimbal_axis: [-1, 0, 0], spin_axis: [0, 1, 0]}, {gimbal_axis: [1, 0, 0], spin_axis: [0, 0, 1]}]}",
+     "model.array.units.gimbal_axis"),  # all parallel: never a torque along x
+    ("model.array.mount_distance_m=1e300", "model.array.mount_distance_m"),
+    ("model.inertia_kg_m2=[1, 1, 1]", "model.products_of_inertia_kg_m2"),  # the tensor is not positive
     ("model.array={preset: box, count: 6}", "model.array.count"),
     ("model.array={preset: pyramid, count: 9}", "model.array.count"),
     ("model.gimbal_angles_deg=[0, 0, 0]", "model.gimbal_angles_deg"),

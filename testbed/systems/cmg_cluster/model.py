@@ -60,7 +60,7 @@ class CmgClusterParams(CmgUnitsParams):
         return np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
 
     def validate(self, path: str) -> None:
-        check_principal_inertia(np.linalg.eigvalsh(self.inertia_tensor()), join(path, "products_of_inertia_kg_m2")
+        check_principal_inertia(np.linalg.eigvalsh(self.inertia_tensor()).tolist(), join(path, "products_of_inertia_kg_m2")
                                 if any(self.products_of_inertia_kg_m2) else join(path, "inertia_kg_m2"))
         count = self.unit_count()
         for name in ("gimbal_angles_deg", "rotor_static_imbalance_kg_m", "rotor_dynamic_imbalance_kg_m2"):
