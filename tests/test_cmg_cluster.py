@@ -128,6 +128,7 @@ def test_unequal_rotor_momenta_scale_the_columns():
     ("model.array={preset: box, count: 6}", "model.array.count"),
     ("model.array={preset: pyramid, count: 9}", "model.array.count"),
     ("model.gimbal_angles_deg=[0, 0, 0]", "model.gimbal_angles_deg"),
+    ("model.gimbal_angles_deg=[]", "model.gimbal_angles_deg"),
     ("model.products_of_inertia_kg_m2=[900, 0, 0]", "model.products_of_inertia_kg_m2"),
     ("model.faults=[{at_s: 10, unit: 5, kind: stuck}]", "model.faults[0].unit"),
 ])
