@@ -2,7 +2,7 @@
 
 Each array is a list of units, each with its gimbal axis g_i, its spin axis at zero gimbal angle
 e_i (normal to g_i), its mount position and its rotor momentum, and the gimbal angles it starts
-from. The presets (docs/your-spacecraft.md draws each):
+from. The presets (docs/your-spacecraft.md tabulates them):
 
 - `pyramid` (Wie's pyramid, any `count` of 3 ... 8 units): unit i at azimuth phi_i = 2 pi (i-1)/n,
   g_i = (sin b cos phi_i, sin b sin phi_i, cos b) normal to a face tilted by the skew angle b
@@ -33,9 +33,9 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.math.validation import check_principal_inertia, check_unit_vector
 from testbed.scenario.schema import join, param
+from testbed.steering.validation import MAX_UNITS, MIN_UNITS  # the clusters a steering law takes
 from testbed.systems.cmg_rhombus.cluster import rhombus_axes
 
-MIN_UNITS, MAX_UNITS = 3, 8
 PRESETS = ("pyramid", "box", "roof", "three_orthogonal", "rhombus", "custom")
 PYRAMID_SKEW_DEG = float(np.degrees(np.arccos(1.0 / np.sqrt(3.0))))  # 54.7356 deg: Wie's pyramid
 ROOF_SKEW_DEG = 45.0
