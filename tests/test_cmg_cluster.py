@@ -16,6 +16,7 @@ from testbed.errors import InputError
 from testbed.runner import run_scenario
 from testbed.scenario.loading import load_scenario
 from testbed.steering import FOUR_UNIT_LAWS, LAW_OPTIONS, STEERING_LAWS, steer
+from testbed.steering.minimax_dual import dual_minimax_rates
 from testbed.systems.cmg_cluster.arrays import ArrayParams, UnitParams
 from testbed.systems.cmg_cluster.model import CmgClusterParams, build
 from testbed.systems.cmg_rhombus import ClusterGeometry, CmgRhombus, CmgRhombusParams
@@ -119,9 +120,15 @@ def test_unequal_rotor_momenta_scale_the_columns():
     ("model.array={preset: custom, units: [{gimbal_axis: [2, 0, 0], spin_axis: [0, 1, 0]}, "
      "{gimbal_axis: [0, 1, 0], spin_axis: [0, 0, 1]}, {gimbal_axis: [0, 0, 1], spin_axis: [1, 0, 0]}]}",
      "model.array.units[0].gimbal_axis"),
+    ("model.array={preset: custom, units: [{gimbal_axis: [1, 0, 0], spin_axis: [0, 1, 0]}, "
+     "{gimbal_axis: [-1, 0, 0], spin_axis: [0, 1, 0]}, {gimbal_axis: [1, 0, 0], spin_axis: [0, 0, 1]}]}",
+     "model.array.units.gimbal_axis"),  # all parallel: never a torque along x
+    ("model.array.mount_distance_m=1e300", "model.array.mount_distance_m"),
+    ("model.inertia_kg_m2=[1, 1, 1]", "model.products_of_inertia_kg_m2"),  # the tensor is not positive
     ("model.array={preset: box, count: 6}", "model.array.count"),
     ("model.array={preset: pyramid, count: 9}", "model.array.count"),
     ("model.gimbal_angles_deg=[0, 0, 0]", "model.gimbal_angles_deg"),
+    ("model.gimbal_angles_deg=[]", "model.gimbal_angles_deg"),
     ("model.products_of_inertia_kg_m2=[900, 0, 0]", "model.products_of_inertia_kg_m2"),
     ("model.faults=[{at_s: 10, unit: 5, kind: stuck}]", "model.faults[0].unit"),
 ])
@@ -165,10 +172,22 @@ def least_max_rate(J, b):
     return best
 
 
+def highs_least_max_rate(J, b) -> float:
+    """min max|x_i| over J x = b by HiGHS on the epigraph LP in (x, s)."""
+    units = J.shape[1]
+    highs = linprog(np.r_[np.zeros(units), 1.0],
+                    A_ub=np.block([[np.eye(units), -np.ones((units, 1))], [-np.eye(units), -np.ones((units, 1))]]),
+                    b_ub=np.zeros(2 * units), A_eq=np.hstack([J, np.zeros((3, 1))]), b_eq=b,
+                    bounds=[(None, None)] * units + [(0, None)], method="highs")
+    assert highs.status == 0
+    return highs.fun
+
+
 @pytest.mark.parametrize("units", [3, 5, 6, 8])
 def test_minimax_on_n_units_is_the_least_peak_rate(units):
-    """Min-max on n != 4 units (the LP over the null space) against the dual's closed form and
-    against HiGHS on the epigraph LP, at random angles and demands: the peak rate agrees to 1e-9
+    """Min-max on n != 4 units (the LP's dual in closed form, minimax_dual.py, certified: it
+    answered at every state here) against the pair enumeration above and against HiGHS on the
+    epigraph LP, at random angles and demands: the peak rate agrees to 1e-9
     (a simplex vertex, exact to rounding; well conditioned away from singular sets: random angles
     with sqrt(det(J J^T)) > 0.05 only), and J beta' = b to 1e-12."""
     array = ArrayParams(preset="three_orthogonal") if units == 3 else ArrayParams(count=units)
@@ -177,14 +196,25 @@ def test_minimax_on_n_units_is_the_least_peak_rate(units):
     for beta in angles[:10]:
         J = g.unit_jacobian(beta)
         b = RNG.normal(size=3)
+        assert dual_minimax_rates(J, b) is not None
         result = steer("minimax", J, 1.0, b, np.inf)
         peak = np.abs(result.beta_rate).max()
         assert peak == pytest.approx(least_max_rate(J, b), rel=1e-9)
-        highs = linprog(np.r_[np.zeros(units), 1.0],
-                        A_ub=np.block([[np.eye(units), -np.ones((units, 1))], [-np.eye(units), -np.ones((units, 1))]]),
-                        b_ub=np.zeros(2 * units), A_eq=np.hstack([J, np.zeros((3, 1))]), b_eq=b,
-                        bounds=[(None, None)] * units + [(0, None)], method="highs")
-        assert peak == pytest.approx(highs.fun, rel=1e-9)
+        assert peak == pytest.approx(highs_least_max_rate(J, b), rel=1e-9)
+        np.testing.assert_allclose(J @ result.beta_rate, b, atol=1e-12)
+        # the LP over the null space (minimax_lp, the dual's fallback) reaches the same peak
+        assert np.abs(steer("minimax_lp", J, 1.0, b, np.inf).beta_rate).max() == pytest.approx(peak, rel=1e-9)
+
+
+def test_minimax_on_a_degenerate_facet_is_still_the_least_peak_rate():
+    """Three columns in one plane (a facet of the zonotope with three generators) and two columns
+    parallel: whichever path answers (the certified dual or the LP it falls back to), the peak
+    rate is HiGHS's to 1e-9 and J beta' = b to 1e-12."""
+    c = 1.0 / math.sqrt(2.0)
+    J = np.array([[1.0, 0.0, c, 0.0, 0.0, 0.0], [0.0, 1.0, c, 0.0, 0.6, 0.6], [0.0, 0.0, 0.0, 1.0, 0.8, 0.8]])
+    for b in (np.array([0.3, 0.2, 0.0]), np.array([0.0, 0.0, 1.0]), RNG.normal(size=3)):
+        result = steer("minimax", J, 1.0, b, np.inf)
+        assert np.abs(result.beta_rate).max() == pytest.approx(highs_least_max_rate(J, b), rel=1e-9)
         np.testing.assert_allclose(J @ result.beta_rate, b, atol=1e-12)
 
 

@@ -121,7 +121,7 @@ def check_principal_inertia(inertia, path: str) -> None:
     I_i <= I_j + I_k."""
     values = np.asarray(inertia, float)
     if np.any(values <= 0):
-        raise InputError(path, f"principal inertias must be > 0, got {list(values)}")
+        raise InputError(path, f"principal inertias must be > 0, got {values.tolist()}")
     for value in values:
         check_in_range(path, float(value), INERTIA_RANGE_KG_M2, "kg m^2")
     total = values.sum()

@@ -1,5 +1,5 @@
 """Exact closed-form min-max steering for a 4-gimbal cluster (SEEDS §004 eq. (21)-(27)); a
-cluster of n != 4 units takes the LP over its (n - 3)-dimensional null space (minimax_lp.py).
+cluster of n != 4 units takes the closed form of the LP's dual (minimax_dual.py).
 
 A 3x4 J of rank 3 has a one-dimensional null space n, so every solution of J beta' = b is
 beta' = x + t n (t real), and the min-max objective f(t) = max_i |x_i + t n_i| is convex and
@@ -35,7 +35,8 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
-from testbed.steering.minimax_lp import minimax_lp_steering, nullspace_lp_rates
+from testbed.steering.minimax_dual import dual_minimax_rates
+from testbed.steering.minimax_lp import nullspace_lp_rates
 from testbed.steering.result import SteeringResult, limited_result, status_string
 from testbed.math.validation import number_in
 from testbed.steering.validation import checked_problem, checked_rate_bounds
@@ -152,11 +153,11 @@ def minimax_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND,
         rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
     if null_motion_price != 0.0:
         null_motion_price = number_in("steering.null_motion_price", null_motion_price, 0.0, 1.0)
-    if len(rows[0]) != 4:  # a null space of n - 3 dimensions: the LP over it (minimax_lp)
+    if len(rows[0]) != 4:
         if null_motion_price != 0.0:
             raise InputError("steering.null_motion_price", f"prices a one-dimensional null space: a 4-unit "
                              f"cluster's, not {len(rows[0])} units'")
-        return minimax_lp_steering(np.array(rows), h, hdot, beta_rate_max, rcond=rcond, rate_bounds=rate_bounds)
+        return _other_count(rows, h, hdot, beta_rate_max, rcond, rate_bounds)
     b = (hdot[0] / h, hdot[1] / h, hdot[2] / h)
     n = cofactor_null_vector(rows)
     measure = math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3])  # Cauchy-Binet
@@ -190,3 +191,20 @@ def minimax_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND,
                  for r in rows]
     return SteeringResult(np.array(beta), np.array(delivered), scale, measure, rank,
                           status_string(scale < 1.0, rank < 3, lp_failed))
+
+
+def _other_count(rows, h, hdot, beta_rate_max, rcond, rate_bounds) -> SteeringResult:
+    """Min-max on n != 4 units (an (n - 3)-dimensional null space): at rank 3 from the LP's dual in
+    closed form (minimax_dual.py), certified; where the certificate fails or rank J < 3, the LP
+    over the null space for the least-squares projection of the demand (minimax_lp.py)."""
+    J, b = np.array(rows), np.array(hdot) / h
+    svd = jacobian_svd(J, rcond)
+    beta = dual_minimax_rates(J, b) if svd.rank == 3 else None
+    lp_failed = False
+    if beta is None:
+        p = min_norm_solution(svd, b)
+        lp = nullspace_lp_rates(p, svd.null_space)
+        lp_failed = lp is None
+        beta = p if lp_failed else lp
+    bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max, len(rows[0]))
+    return limited_result(J, h, beta, beta_rate_max, svd.measure, svd.rank, lp_failed, bounds=bounds)

@@ -2,7 +2,7 @@
 
 Each array is a list of units, each with its gimbal axis g_i, its spin axis at zero gimbal angle
 e_i (normal to g_i), its mount position and its rotor momentum, and the gimbal angles it starts
-from. The presets (docs/your-spacecraft.md draws each):
+from. The presets (docs/your-spacecraft.md tabulates them):
 
 - `pyramid` (Wie's pyramid, any `count` of 3 ... 8 units): unit i at azimuth phi_i = 2 pi (i-1)/n,
   g_i = (sin b cos phi_i, sin b sin phi_i, cos b) normal to a face tilted by the skew angle b
@@ -33,13 +33,14 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.math.validation import check_principal_inertia, check_unit_vector
 from testbed.scenario.schema import join, param
+from testbed.steering.validation import MAX_UNITS, MIN_UNITS  # the clusters a steering law takes
 from testbed.systems.cmg_rhombus.cluster import rhombus_axes
 
-MIN_UNITS, MAX_UNITS = 3, 8
 PRESETS = ("pyramid", "box", "roof", "three_orthogonal", "rhombus", "custom")
 PYRAMID_SKEW_DEG = float(np.degrees(np.arccos(1.0 / np.sqrt(3.0))))  # 54.7356 deg: Wie's pyramid
 ROOF_SKEW_DEG = 45.0
 RHOMBUS_ALPHA_DEG = float(np.degrees(np.arctan(np.sqrt(2.0))))  # SEEDS §004
+MAX_MOUNT_M = 1e3  # a unit this far from the bus origin is off any spacecraft
 # a spin axis may be this far (|g . e|) from normal to its gimbal axis, as typed by hand (four figures)
 NORMAL_TOLERANCE = 1e-3
 
@@ -50,7 +51,8 @@ class UnitParams:
 
     gimbal_axis: list[float] = param(length=3, doc="unit gimbal axis g_i")
     spin_axis: list[float] = param(length=3, doc="unit spin axis at zero gimbal angle, normal to g_i")
-    position_m: list[float] = param([0.0, 0.0, 0.0], length=3, doc="where the gimbal sits on the bus")
+    position_m: list[float] = param([0.0, 0.0, 0.0], length=3, ge=-MAX_MOUNT_M, le=MAX_MOUNT_M,
+                                    doc="where the gimbal sits on the bus")
     rotor_momentum_nms: float | None = param(None, gt=0, doc="h_i; None: the model's rotor_momentum_nms")
     rotor_mass_kg: float | None = param(None, gt=0, doc="None: the model's rotor_mass_kg")
     gimbal_mass_kg: float | None = param(None, gt=0, doc="None: the model's gimbal_mass_kg")
@@ -70,7 +72,7 @@ class ArrayParams:
     count: int | None = param(None, ge=MIN_UNITS, le=MAX_UNITS, doc="pyramid: number of units (4 if not given)")
     skew_deg: float | None = param(None, gt=0, le=90, doc="pyramid, roof: gimbal-axis angle from z")
     alpha_deg: float | None = param(None, gt=0, lt=90, doc="rhombus: the seed's angle alpha")
-    mount_distance_m: float = param(0.5, ge=0, doc="presets: distance of each unit from the bus origin")
+    mount_distance_m: float = param(0.5, ge=0, le=MAX_MOUNT_M, doc="presets: distance of each unit from the bus origin")
     units: list[UnitParams] = param([], doc="custom: the units, 3 ... 8")
 
     def validate(self, path: str) -> None:
@@ -165,5 +167,8 @@ def _custom(units: list[UnitParams], path: str) -> ArrayLayout:
         spin = spin - (gimbal @ spin) * gimbal
         g.append(gimbal)
         e.append(spin / np.linalg.norm(spin))
+    if np.linalg.matrix_rank(np.array(g), tol=NORMAL_TOLERANCE) < 2:
+        raise InputError(join(path, "gimbal_axis"), "the gimbal axes are all parallel: no gimbal state gives a "
+                         "torque along them")
     positions = np.array([unit.position_m for unit in units], dtype=float)
     return ArrayLayout(np.array(g), np.array(e), positions, np.zeros(len(units)), list(units))

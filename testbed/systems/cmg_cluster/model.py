@@ -60,12 +60,13 @@ class CmgClusterParams(CmgUnitsParams):
         return np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
 
     def validate(self, path: str) -> None:
-        check_principal_inertia(np.linalg.eigvalsh(self.inertia_tensor()), join(path, "products_of_inertia_kg_m2")
-                                if any(self.products_of_inertia_kg_m2) else join(path, "inertia_kg_m2"))
+        tensor_field = "products_of_inertia_kg_m2" if any(self.products_of_inertia_kg_m2) else "inertia_kg_m2"
+        check_principal_inertia(np.linalg.eigvalsh(self.inertia_tensor()).tolist(), join(path, tensor_field))
         count = self.unit_count()
         for name in ("gimbal_angles_deg", "rotor_static_imbalance_kg_m", "rotor_dynamic_imbalance_kg_m2"):
             values = getattr(self, name)
-            if values and len(values) != count:
+            given = values is not None and (name == "gimbal_angles_deg" or values)  # []: balanced rotors
+            if given and len(values) != count:
                 raise InputError(join(path, name), f"gives {len(values)} values; the array has {count} units")
         for name in ("rotor_static_imbalance_kg_m", "rotor_dynamic_imbalance_kg_m2"):
             if not getattr(self, name):  # none given: every rotor balanced
