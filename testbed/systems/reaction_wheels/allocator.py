@@ -1,4 +1,5 @@
-"""The allocator `wheel_pinv`: the wanted body torque as wheel motor torques, minimum norm.
+"""The wheel allocators' shared part (`WheelAllocator`) and `wheel_pinv`: the wanted body torque as wheel
+motor torques, minimum norm.
 
 The bus takes the reaction of the wheels' momentum change, so a body torque M asks of the array
 H' = A u = -(M + w x H) (docs/theory/reaction-wheels.md, eq. (RW-3)); or H' = -M when the law
