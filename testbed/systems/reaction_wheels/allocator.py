@@ -1,4 +1,5 @@
-"""The allocator `wheel_pinv`: the wanted body torque as wheel motor torques, minimum norm.
+"""The wheel allocators' shared part (`WheelAllocator`) and `wheel_pinv`: the wanted body torque as wheel
+motor torques, minimum norm.
 
 The bus takes the reaction of the wheels' momentum change, so a body torque M asks of the array
 H' = A u = -(M + w x H) (docs/theory/reaction-wheels.md, eq. (RW-3)); or H' = -M when the law
@@ -57,14 +58,20 @@ def minimum_norm_inverse(array: WheelArray, allocator: str) -> np.ndarray:
     return np.linalg.pinv(array.distribution)
 
 
-def wheel_torque_bounds(array: WheelArray, rates, friction, period: float) -> tuple[np.ndarray, np.ndarray]:
-    """(lo, hi) [N m]: the allocated torque each wheel may take over one control period `period` [s],
-    at speeds `rates` [rad/s]: its motor's limit less the friction `friction` the motor also
-    overcomes, and the torque that brings it to its speed limit in the period (Js (+-Omega_max -
-    Omega) / period)."""
+def speed_bounds(array: WheelArray, rates, period: float) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) [N m]: the torques that bring each wheel from `rates` [rad/s] to -Omega_max and
+    +Omega_max in one control period `period` [s], Js (+-Omega_max - Omega) / period."""
     to_limit = array.spin_inertia / period
-    lo = np.maximum(-array.torque_max - friction, (-array.speed_max - rates) * to_limit)
-    hi = np.minimum(array.torque_max - friction, (array.speed_max - rates) * to_limit)
+    return (-array.speed_max - rates) * to_limit, (array.speed_max - rates) * to_limit
+
+
+def wheel_torque_bounds(array: WheelArray, rates, friction, period: float) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) [N m] of (RW-6): the allocated torque each wheel may take over one control period
+    `period` [s] at speeds `rates` [rad/s]: its motor's limit less the friction `friction` the motor
+    also overcomes, within its `speed_bounds`."""
+    slowest, fastest = speed_bounds(array, rates, period)
+    lo = np.maximum(-array.torque_max - friction, slowest)
+    hi = np.minimum(array.torque_max - friction, fastest)
     return lo, np.maximum(hi, lo)
 
 

@@ -21,7 +21,7 @@ from scipy.optimize import linprog
 from testbed.pipeline import stage
 from testbed.scenario.schema import param
 from testbed.steering.rate_limit import apply_rate_bounds
-from testbed.systems.reaction_wheels.allocator import WheelAllocator
+from testbed.systems.reaction_wheels.allocator import WheelAllocator, speed_bounds
 
 
 @dataclass(kw_only=True)
@@ -29,9 +29,9 @@ class WheelMinimaxParams:
     compensate_friction: bool = param(True, doc="add the bearing friction of each wheel to its motor's command")
 
 
-def least_largest_torque(distribution, wanted, torque_max, friction, speed_bounds):
+def least_largest_torque(distribution, wanted, torque_max, friction, reach):
     """(u, s) [N m, -]: A u = `wanted` with the least s = max_i |u_i + f_i| / u_max,i, each u_i within
-    `speed_bounds` (lo, hi); None when no u within the speed bounds delivers `wanted`."""
+    `reach` (lo, hi), its speed_bounds; None when no u within them delivers `wanted`."""
     n = len(torque_max)
     cost = np.zeros(n + 1)
     cost[-1] = 1.0
@@ -39,16 +39,16 @@ def least_largest_torque(distribution, wanted, torque_max, friction, speed_bound
     upper = np.block([[identity, -torque_max[:, None]], [-identity, -torque_max[:, None]]])
     result = linprog(cost, A_ub=upper, b_ub=np.concatenate([-friction, friction]),
                      A_eq=np.hstack([distribution, np.zeros((3, 1))]), b_eq=wanted,
-                     bounds=list(zip(*speed_bounds)) + [(0.0, None)], method="highs")
+                     bounds=list(zip(*reach)) + [(0.0, None)], method="highs")
     return (result.x[:n], float(result.x[-1])) if result.status == 0 else None
 
 
-def least_largest_on_a_line(start, null, torque_max, friction, speed_bounds):
+def least_largest_on_a_line(start, null, torque_max, friction, reach):
     """least_largest_torque for an array with a one-dimensional null space: u = u0 + t n (`start` u0 =
     A^+ H', `null` n), where s(t) = max_i |u0_i + f_i + t n_i| / u_max,i is convex and piecewise linear,
-    least at a crossing of two of its lines or at an end of the interval of t the speed bounds allow.
+    least at a crossing of two of its lines or at an end of the interval of t that `reach` allows.
     None when that interval is empty."""
-    lo, hi = speed_bounds
+    lo, hi = reach
     low, high = -np.inf, np.inf
     for u, n, a, b in zip(start, null, lo, hi):
         if n > 0:
@@ -94,13 +94,11 @@ class WheelMinimax(WheelAllocator):
         self.null = null_space[0] if len(null_space) == 1 else None  # four wheels: the closed form
 
     def distribute(self, wanted, rates, friction, bounds):
-        a = self.array
-        to_limit = a.spin_inertia / self.period
-        speed_bounds = ((-a.speed_max - rates) * to_limit, (a.speed_max - rates) * to_limit)
+        limits, reach = self.array.torque_max, speed_bounds(self.array, rates, self.period)
         if self.null is not None:
-            fitted = least_largest_on_a_line(self.inverse @ wanted, self.null, a.torque_max, friction, speed_bounds)
+            fitted = least_largest_on_a_line(self.inverse @ wanted, self.null, limits, friction, reach)
         else:
-            fitted = least_largest_torque(self.distribution, wanted, a.torque_max, friction, speed_bounds)
+            fitted = least_largest_torque(self.distribution, wanted, limits, friction, reach)
         if fitted is not None and fitted[1] <= 1.0:
             return fitted[0], 1.0
         shared = largest_share(self.distribution, wanted, bounds)
