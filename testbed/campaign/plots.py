@@ -6,8 +6,8 @@ Rerun plots scalars against a timeline, not against another scalar, so each scat
 the parameter on a sequence timeline of its kind, TIMELINE: x = round(value / 10^(k - 3)), k
 chosen per parameter so that |value| / 10^k < 10 (four significant digits; the view's title
 gives the unit and 10^(k - 3)), and a text parameter (a choice) by the index of its value (the
-title lists them). The time panel opens on that timeline. Passed cases are green points, failed ones red. Every
-view's title gives the units of its axes.
+title lists them). The time panel opens on that timeline. Passed cases are green points,
+failed ones red. Every view's title gives the units of its axes.
 
 Entities: `histogram/<metric>` (BarChart: counts, bin centres as abscissa, bin widths),
 `scatter/<metric>/<parameter>/passed|failed` (Scalars with SeriesPoints), `summary` (markdown).

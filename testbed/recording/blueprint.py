@@ -36,7 +36,7 @@ def signal_unit(name: str, units: dict) -> str:
 
 def series_names(name: str, width: int, units: dict) -> list[str]:
     """The legend labels of a signal's components, each with its unit: `x [rad/s]` (the view's
-    title names the signal), `w`..`z` of a quaternion, `1`..`4` of a 4-vector (a gimbal each)."""
+    title names the signal), `w`..`z` of a quaternion, `gimbal 1`.. of a gimbal or rotor signal."""
     unit = signal_unit(name, units)
     suffix = f" [{unit}]" if unit else ""
     if name.startswith("quat"):
@@ -57,7 +57,7 @@ TABS = ("attitude", "cluster", "orbit and environment", "sensors and estimator",
 GROUP_TABS = {"truth": "attitude", "reference": "attitude", "sensor": "sensors and estimator",
               "estimator": "sensors and estimator", "law": "law and steering", "allocator": "law and steering"}
 CLUSTER_SIGNALS = {"gimbal_angle", "gimbal_rate", "gimbal_rate_command", "rotor_rate", "cmg_momentum",
-                   "internal_momentum", "singularity_measure", "envelope_share", "body_torque"}
+                   "internal_momentum", "singularity_measure", "envelope_share"}
 ORBIT_ENVIRONMENT_SIGNALS = {"orbit_position", "orbit_velocity", "quat_lvlh", "eclipse", "sun_direction",
                              "magnetic_field", "magnetorquer_dipole"}
 
