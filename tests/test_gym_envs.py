@@ -170,3 +170,34 @@ def test_an_action_that_is_not_a_finite_real_vector_is_refused(action):
         with pytest.raises(ValueError, match="finite"):
             env.step(action)
     env.close()
+
+
+def episode(env, policy, seed=0):
+    """(return, last reward, info at the end, periods) of one episode of `policy`."""
+    observation, _ = env.reset(seed=seed)
+    rewards = []
+    while True:
+        observation, reward, terminated, truncated, info = env.step(policy(observation))
+        rewards.append(reward)
+        if terminated or truncated:
+            return sum(rewards), rewards[-1], info, len(rewards)
+
+
+def test_a_success_returns_more_than_any_episode_that_does_not_succeed():
+    """Issue 39: a successful episode returned -19.44 and one that never succeeded -18.53. The
+    success bonus is the most the whole episode could cost (1.31 a period, 1200 periods of
+    reorient_minimax's 60 s): a success returns at least 0, an episode without one at most 0."""
+    env = gymnasium.make("testbed/CmgSlew-v0", scenario="reorient_minimax")
+    slew = env.unwrapped
+    policy = example("gym_slew_classical").RateLimitedPD  # as sys.modules["slew_pd_policy"] holds it
+    pd = policy(slew.max_rate, slew.limits.torque_max)
+    bonus = slew.failure_cost_per_period * slew.sim.n_ticks
+    assert slew.success_bonus() == bonus == pytest.approx(1.31 * 1200)
+    success, last, info, periods = episode(env, pd)
+    assert info["is_success"] and periods < 1200
+    assert success >= 0.0 and last >= bonus - slew.failure_cost_per_period
+    # the same policy made sluggish never gets there in time: its costs, all <= 0, and no bonus
+    sluggish = policy(slew.max_rate, slew.limits.torque_max, k=0.02, w_max=0.003)
+    missed, _, info, periods = episode(env, sluggish)
+    assert not info["is_success"] and periods == 1200 and missed <= 0.0 < success
+    env.close()

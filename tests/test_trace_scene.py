@@ -171,3 +171,53 @@ def test_a_trace_with_no_signal_opens_on_its_stored_result():
 
     right = blueprint([], 1.0, None).root_container.contents[-1]
     assert type(right).__name__ == "TextDocumentView" and str(right.origin) == f"/{RESULT_ENTITY}"
+
+
+ORBIT_CMG_KEYS = ["truth/omega", "truth/quat", "truth/quat_lvlh", "truth/angular_momentum_world",
+                  "truth/gimbal_angle", "truth/gimbal_rate", "truth/rotor_rate", "truth/cmg_momentum",
+                  "truth/singularity_measure", "truth/envelope_share", "truth/orbit_position",
+                  "truth/orbit_velocity", "truth/eclipse", "truth/sun_direction", "truth/magnetic_field",
+                  "truth/torque_gravity_gradient", "truth/torque_drag", "truth/torque_environment",
+                  "truth/magnetorquer_dipole", "truth/magnetometer", "sensor/quat", "sensor/omega",
+                  "estimator/quat", "estimator/omega", "law/torque", "law/attitude_error",
+                  "allocator/gimbal_rates", "allocator/scale", "reference/omega_error"]
+
+
+def _tabs(bp):
+    """{tab name: [view names]} of a blueprint whose right side is the Tabs container."""
+    tabs = bp.root_container.contents[-1]
+    return tabs, {getattr(t, "name", None): [getattr(v, "name", None) for v in getattr(t, "contents", None) or []]
+                  for t in tabs.contents}
+
+
+def test_an_orbit_runs_signals_go_to_one_tab_a_subsystem_and_it_opens_on_the_result():
+    """Issue 39: one 'truth' tab held 24 plots; now attitude, cluster, orbit and environment,
+    sensors and estimator, law and steering, and the result, which it opens on."""
+    from testbed.recording.blueprint import RESULT_TAB, blueprint, tab_of
+
+    tabs, views = _tabs(blueprint(ORBIT_CMG_KEYS, 100.0, None))
+    assert list(views) == ["attitude", "cluster", "orbit and environment", "sensors and estimator",
+                           "law and steering", RESULT_TAB]
+    assert tabs.active_tab == RESULT_TAB
+    assert {k for k in ORBIT_CMG_KEYS if tab_of(k) == "cluster"} == {
+        "truth/gimbal_angle", "truth/gimbal_rate", "truth/rotor_rate", "truth/cmg_momentum",
+        "truth/singularity_measure", "truth/envelope_share"}
+    assert tab_of("truth/torque_drag") == tab_of("truth/orbit_position") == "orbit and environment"
+    assert tab_of("truth/magnetometer") == tab_of("estimator/quat") == "sensors and estimator"
+    assert tab_of("allocator/scale") == tab_of("law/torque") == "law and steering"
+    assert tab_of("reference/omega_error") == tab_of("truth/quat") == "attitude"
+    assert max(len(v) for v in views.values()) <= 10  # no tab packs two dozen plots
+    # titles short enough to read and with their unit
+    assert "omega [rad/s]" in views["attitude"] and "torque_drag [N m]" in views["orbit and environment"]
+    assert "magnetic_field [T]" in views["orbit and environment"] and "gimbal_angle [rad]" in views["cluster"]
+
+
+def test_legends_give_every_component_with_its_unit():
+    from testbed.recording.blueprint import UNITS, series_names
+
+    assert series_names("gimbal_rate", 4, UNITS) == [f"gimbal {i} [rad/s]" for i in (1, 2, 3, 4)]
+    assert series_names("rotor_rate", 4, UNITS) == [f"rotor {i} [rad/s]" for i in (1, 2, 3, 4)]
+    assert series_names("omega", 3, UNITS) == ["x [rad/s]", "y [rad/s]", "z [rad/s]"]
+    assert series_names("torque_solar_pressure", 3, UNITS)[0] == "x [N m]"
+    assert series_names("quat_lvlh", 4, UNITS) == ["w", "x", "y", "z"]
+    assert series_names("kinetic_energy", 1, UNITS) == ["kinetic_energy [J]"]

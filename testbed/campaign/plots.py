@@ -1,13 +1,13 @@
-"""A campaign's summary trace, DIR/summary/summary.rrd: it opens on a histogram of every metric, and
-has one tab per metric with its scatter plot against every dispersed parameter, so a
-sensitivity shows at a glance; the summary (pass rate, spreads, worst cases) as tables beside them.
+"""A campaign's summary trace, DIR/summary/summary.rrd: it opens on the summary (pass rate, spreads,
+worst cases) as tables; a tab of a histogram of every metric, and one tab per metric with its
+scatter plot against every dispersed parameter, so a sensitivity shows at a glance.
 
 Rerun plots scalars against a timeline, not against another scalar, so each scatter plot puts
 the parameter on a sequence timeline of its kind, TIMELINE: x = round(value / 10^(k - 3)), k
 chosen per parameter so that |value| / 10^k < 10 (four significant digits; the view's title
 gives the unit and 10^(k - 3)), and a text parameter (a choice) by the index of its value (the
-title lists them). The time panel opens on that timeline. Passed cases are green points, failed ones red. Every
-view's title gives the units of its axes.
+title lists them). The time panel opens on that timeline. Passed cases are green points,
+failed ones red. Every view's title gives the units of its axes.
 
 Entities: `histogram/<metric>` (BarChart: counts, bin centres as abscissa, bin widths),
 `scatter/<metric>/<parameter>/passed|failed` (Scalars with SeriesPoints), `summary` (markdown).
@@ -84,7 +84,8 @@ def write_summary_rrd(path: Path, rows: list[dict], metric_names: list[str], par
             counts, centres, widths = histogram(y[finite])
             entity = f"histogram/{_part(metric)}"
             rec.log(entity, rr.BarChart(counts, abscissa=centres, widths=widths), static=True)
-            histograms.append(rrb.BarChartView(origin=entity, name=f"{metric} [{unit_text(metric)}]: cases a bin"))
+            histograms.append(rrb.BarChartView(origin=entity, name=f"{metric} [{unit_text(metric)}]: cases a bin",
+                                               plot_legend=rrb.PlotLegend(visible=False)))  # the title says it
             views = []
             for parameter in parameters:
                 x, label = parameter_axis(parameter, [r.get(parameter) for r in rows])
@@ -107,12 +108,11 @@ def write_summary_rrd(path: Path, rows: list[dict], metric_names: list[str], par
                 views.append(rrb.TimeSeriesView(origin=origin, name=f"{metric} [{unit_text(metric)}] vs {label}", axis_x=axis,
                                                 plot_legend=rrb.PlotLegend(rrb.Corner2D.RightTop)))
             if views:
-                tabs.append(rrb.Grid(*views, name=f"{metric} vs parameters"))
+                tabs.append(rrb.Grid(*views, grid_columns=2, name=f"{metric} vs parameters"))
         rec.log("summary", rr.TextDocument(summary_markdown(summary), media_type="text/markdown"), static=True)
-        first = rrb.Grid(*histograms, name="histograms") if histograms else rrb.TextDocumentView(origin="/summary")
+        pictures = [rrb.Grid(*histograms, grid_columns=2, name="histograms")] if histograms else []
         rec.send_blueprint(rrb.Blueprint(
-            rrb.Horizontal(rrb.Tabs(first, *tabs), rrb.TextDocumentView(origin="/summary", name="summary"),
-                           column_shares=[3, 2]),
+            rrb.Tabs(rrb.TextDocumentView(origin="/summary", name="summary"), *pictures, *tabs, active_tab="summary"),
             rrb.TimePanel(timeline=TIMELINE, state="collapsed"),
             rrb.BlueprintPanel(state="collapsed"), rrb.SelectionPanel(state="collapsed")))
     return Path(path)

@@ -1,5 +1,5 @@
-"""A campaign's summary (testbed.campaign.stats `summary`) as Markdown tables: the pane of
-DIR/summary/summary.rrd beside its plots."""
+"""A campaign's summary (testbed.campaign.stats `summary`) as Markdown tables: the first tab of
+DIR/summary/summary.rrd, before its plots."""
 
 from __future__ import annotations
 

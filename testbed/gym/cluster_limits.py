@@ -15,7 +15,8 @@ from testbed.pipeline import stage_info
 class ClusterLimits:
     """gimbals: how many; rotor_momentum [N m s] each; gimbal_rate_max [rad/s]: the steering
     law's limit. `torque_max` = gimbals h rate_max [N m] bounds the torque the cluster can give
-    at that limit along any axis (each gimbal gives at most h rate_max, SEEDS §004 eq. 17-18)."""
+    at that limit along any axis (each gimbal gives at most h rate_max: the rhombus-cluster
+    reorientation paper's eq. 17-18, docs/theory/papers.md)."""
 
     gimbals: int
     rotor_momentum: float

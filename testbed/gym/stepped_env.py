@@ -27,7 +27,11 @@ class SteppedEnv(gymnasium.Env):
     same episode bit for bit. step(action): one control period. The episode is truncated at
     the scenario's duration, and terminated when the task is done or has failed (the run
     diverged, a stage failed, or the subclass's own bounds); a failure costs
-    `failure_cost_per_period` times the periods left. render_mode "rrd": each episode's trace
+    `failure_cost_per_period` times the periods left, and a success earns `success_bonus()`:
+    `failure_cost_per_period` (the most a period can cost) times the episode's periods, so that
+    every episode that succeeds returns at least 0 and more than every episode that does not
+    (whose costs sum to at most 0), and, of two successes, the sooner returns more when their
+    periods cost alike (docs/stepping.md "Reward"). render_mode "rrd": each episode's trace
     is written to `rrd_path` (default `runs/<scenario>.episode.rrd`), whole once the episode
     ends (at the next reset or at close)."""
 
@@ -92,6 +96,8 @@ class SteppedEnv(gymnasium.Env):
         else:
             done, failed = self.outcome()
         reward = self.reward(action)
+        if done and not failed:
+            reward += self.success_bonus()
         if failed:
             reward -= self.failure_cost_per_period * (periods_left - 1)
         terminated = done or failed
@@ -105,6 +111,10 @@ class SteppedEnv(gymnasium.Env):
     def close(self):
         self.sim.close()
         super().close()
+
+    def success_bonus(self) -> float:
+        """What a success earns at once: the most the whole episode could cost (class doc)."""
+        return self.failure_cost_per_period * self.sim.n_ticks
 
     def _info(self, done: bool) -> dict:
         return {"time_s": self.sim.time, "status": self.sim.status, "is_success": bool(done)} | self.details()

@@ -1,5 +1,7 @@
-"""The Rerun blueprint of a trace: one time-series view per group of signals (truth, reference,
-each pipeline slot), their units and component labels, and the 3D and momentum-space views."""
+"""The Rerun blueprint of a trace: the 3D views on the left; on the right one tab per subsystem
+(TABS: attitude, cluster, orbit and environment, sensors and estimator, law and steering) of
+time-series views, two columns wide, each titled with its signal and unit and every series
+labelled with its unit, and a result tab (the stored result, whole), which it opens on."""
 
 from __future__ import annotations
 
@@ -19,41 +21,87 @@ UNITS = {
     "kinetic_energy": "J", "torque": "N m", "body_torque": "N m", "torque_delivered": "N m",
     "gimbal_angle": "rad", "gimbal_rate": "rad/s", "gimbal_rates": "rad/s", "rotor_rate": "rad/s",
     "singularity": "", "scale": "", "z": "rad/s",
+    "gimbal_rate_command": "rad/s", "orbit_position": "m", "orbit_velocity": "m/s", "magnetic_field": "T",
+    "magnetometer": "T", "magnetorquer_dipole": "A m^2", "omega_estimate": "rad/s", "target_omega": "rad/s",
+    "innovation": "rad/s", "error_angle": "rad", "held_momentum": "N m s", "momentum": "N m s",
+    "cmg_momentum": "N m s",
 }
 AXES = {3: ["x", "y", "z"], 4: ["1", "2", "3", "4"]}
 
 
+def signal_unit(name: str, units: dict) -> str:
+    """A signal's unit: from `units`, or N m for any torque ("" when unknown or dimensionless)."""
+    return units.get(name) or ("N m" if name.startswith("torque") else "")
+
+
 def series_names(name: str, width: int, units: dict) -> list[str]:
-    unit = units.get(name, "")
+    """The legend labels of a signal's components, each with its unit: `x [rad/s]` (the view's
+    title names the signal), `w`..`z` of a quaternion, `gimbal 1`.. of a gimbal or rotor signal."""
+    unit = signal_unit(name, units)
     suffix = f" [{unit}]" if unit else ""
-    if name == "quat":
+    if name.startswith("quat"):
         labels = ["w", "x", "y", "z"]
+    elif name.startswith(("gimbal", "rotor")):  # one column a unit of the cluster
+        labels = [f"{name.split('_')[0]} {i + 1}" for i in range(width)]
     else:
         labels = AXES.get(width, [str(i + 1) for i in range(width)])
     if width == 1:
         return [f"{name}{suffix}"]
-    return [f"{name}_{label}{suffix}" for label in labels]
+    return [f"{label}{suffix}" for label in labels]
 
 
-GROUP_ORDER = ["truth", "reference", "sensor", "estimator", "law", "allocator"]
+RESULT_TAB = "result"
+TABS = ("attitude", "cluster", "orbit and environment", "sensors and estimator", "law and steering")
+# The tab of a pipeline group's signals; a truth signal's by its name (CLUSTER_SIGNALS, the
+# orbit's and the environment's), else attitude; a group of a plug-in's own, a tab of its name.
+GROUP_TABS = {"truth": "attitude", "reference": "attitude", "sensor": "sensors and estimator",
+              "estimator": "sensors and estimator", "law": "law and steering", "allocator": "law and steering"}
+CLUSTER_SIGNALS = {"gimbal_angle", "gimbal_rate", "gimbal_rate_command", "rotor_rate", "cmg_momentum",
+                   "internal_momentum", "singularity_measure", "envelope_share"}
+ORBIT_ENVIRONMENT_SIGNALS = {"orbit_position", "orbit_velocity", "quat_lvlh", "eclipse", "sun_direction",
+                             "magnetic_field", "magnetorquer_dipole"}
+
+
+def tab_of(key: str) -> str:
+    """The tab a signal `group/name` is plotted in (module doc)."""
+    group, name = key.split("/", 1)
+    if group == "truth":
+        if name in CLUSTER_SIGNALS:
+            return "cluster"
+        if name in ORBIT_ENVIRONMENT_SIGNALS or name.startswith("torque_"):
+            return "orbit and environment"
+        if name == "magnetometer":
+            return "sensors and estimator"
+    return GROUP_TABS.get(group, group)
+
+
+def unit_title(key: str, units: dict) -> str:
+    """A view's title: the signal's name and unit, `omega [rad/s]` (`reference/omega_error [rad/s]`
+    outside the truth)."""
+    group, name = key.split("/", 1)
+    unit = signal_unit(name, units)
+    return (name if group == "truth" else key) + (f" [{unit}]" if unit else "")
 
 
 def blueprint(keys, t_end: float, scene: dict | None, path=None) -> rrb.Blueprint:
-    """The default layout: the 3D scene and the result on the left, a tab of plots per group
-    (`keys`: the signals), each over the whole run [0, t_end] s; `path`: the momentum-space
-    path recorded so far (the view looks at it side-on)."""
-    groups: dict[str, list[str]] = {}
-    for key in sorted(keys, key=lambda k: (GROUP_ORDER.index(k.split("/")[0])
-                                                     if k.split("/")[0] in GROUP_ORDER else 99, k)):
-        groups.setdefault(key.split("/")[0], []).append(key)
-    # Every plot shows the whole run (not a window around the time cursor), legend out of the way.
+    """The default layout (module doc): `keys` the signals, each plotted over the whole run
+    [0, t_end] s; `path`: the momentum-space path recorded so far (the view looks at it side-on)."""
+    units = UNITS | (scene or {}).get("units", {})
+    tabs: dict[str, list[str]] = {}
+    for key in sorted(keys, key=lambda k: (TABS.index(tab_of(k)) if tab_of(k) in TABS else len(TABS),
+                                           list(GROUP_TABS).index(k.split("/")[0]) if k.split("/")[0] in GROUP_TABS
+                                           else len(GROUP_TABS), k)):
+        tabs.setdefault(tab_of(key), []).append(key)
+    # Every plot shows the whole run (not a window around the time cursor).
     whole_run = rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.absolute(seconds=0.0),
                                                       end=rrb.TimeRangeBoundary.absolute(seconds=t_end)))
-    tabs = [rrb.Grid(*[rrb.TimeSeriesView(origin=f"/{key}", name=key, axis_x=whole_run,
-                                          plot_legend=rrb.PlotLegend(rrb.Corner2D.RightTop)) for key in keys],
-                     name=group)
-            for group, keys in groups.items()]
-    plots = rrb.Tabs(*tabs) if tabs else rrb.TextDocumentView(origin=f"/{RESULT_ENTITY}")
+    plots = [rrb.Grid(*[rrb.TimeSeriesView(origin=f"/{key}", name=unit_title(key, units), axis_x=whole_run,
+                                           plot_legend=rrb.PlotLegend(rrb.Corner2D.RightTop)) for key in members],
+                      grid_columns=2 if len(members) > 2 else 1, name=tab)
+             for tab, members in tabs.items()]
+    result = rrb.TextDocumentView(origin="/run/summary", name=RESULT_TAB)
+    right = (rrb.Tabs(*plots, result, active_tab=RESULT_TAB) if plots
+             else rrb.TextDocumentView(origin=f"/{RESULT_ENTITY}"))
     left = []
     if scene is not None:
         # Look at the bus from outside, from a (1, -1.2, 0.8) direction, z up.
@@ -69,23 +117,13 @@ def blueprint(keys, t_end: float, scene: dict | None, path=None) -> rrb.Blueprin
         left.append(rrb.Spatial3DView(origin=f"/{MOMENTUM_SPACE}", name=space.get("title", "momentum"),
                                       eye_controls=rrb.EyeControls3D(position=eye, look_target=[0, 0, 0],
                                                                      eye_up=[0, 0, 1])))
-        plots = rrb.Vertical(plots, rrb.TextDocumentView(origin="/run/summary", name="result"), row_shares=[3, 1])
-    else:
-        left.append(rrb.TextDocumentView(origin="/run/summary", name="result"))
+    root = rrb.Horizontal(rrb.Vertical(*left), right, column_shares=[1, 2]) if left else right
     return rrb.Blueprint(
-        rrb.Horizontal(rrb.Vertical(*left, row_shares=_shares(len(left), space is None)), plots,
-                       column_shares=[2, 3]),
+        root,
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", play_state="following"),  # opens on the run's end
     )
-
-
-def _shares(views: int, result_below: bool) -> list[int]:
-    """Heights of the left column's views: the 3D scene 3 to the result's 2 (or the scene and the
-    momentum space alike); an orbit view as tall as the first."""
-    shares = [3, 2][:views] if result_below else [1, 1]
-    return shares[:1] * (views - len(shares)) + shares
 
 
 def _side_view(path: np.ndarray) -> np.ndarray:

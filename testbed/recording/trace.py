@@ -79,7 +79,7 @@ class TraceWriter:
                       "error": UNFINISHED_ERROR,
                       "metrics": {}, "checks": []}
         self._log_result(unfinished)
-        if source:  # first in the file, so that a later run reads it cheaply (trace_reader.recorded_source)
+        if source:  # flushed with the first static parts, so a later run reads it cheaply (trace_reader.recorded_source)
             rec.log(SOURCE_ENTITY, rr.TextDocument(str(Path(source).resolve()), media_type="text/plain"), static=True)
         if scene is not None:
             write_scene_static(rec, scene)
