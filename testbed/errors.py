@@ -110,8 +110,9 @@ def refused_as(field: str, name: str = "", params: dict | None = None):
             raise InputError(field, f"{lead}its parameters cannot be built: {type(exc).__name__}: {exc}") from None
         path, value = extreme
         built = f"{field} ({name})" if name else field
+        why = one_line(exc) or type(exc).__name__
         raise InputError(path, f"{value:g} is too {'large' if abs(value) > 1 else 'small'} to build {built} "
-                         f"from: its arithmetic leaves double precision ({one_line(exc) or type(exc).__name__})") from None
+                         f"from: its arithmetic leaves double precision ({why})") from None
 
 
 EXTREME_DECADES = 15  # a float beyond 1e15 or below 1e-15 in magnitude is a suspect when arithmetic fails

@@ -134,7 +134,8 @@ def prepare(scenario, stages: dict | None = None):
     if stages:
         install_stages(pipeline, plant, stages)
     references_registry.check_system(scenario)  # after the stages: a reference describes them
-    with np.errstate(all="raise"), refused_as("reference", params={"reference": (scenario.reference or (None, None))[1]}):
+    reference_params = {"reference": scenario.reference[1]} if scenario.reference else {}
+    with np.errstate(all="raise"), refused_as("reference", params=reference_params):
         reference = references_registry.prepare(scenario, plant) if scenario.reference else None
     return plant, pipeline, reference
 
