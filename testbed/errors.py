@@ -2,6 +2,8 @@
 fields, CLI options; exit 2) and output that could not be written (exit 1); how they quote values."""
 
 import contextlib
+import dataclasses
+import math
 import reprlib
 
 import numpy as np
@@ -93,12 +95,45 @@ def write_failed(path, exc: OSError) -> WriteFailed:
 
 
 @contextlib.contextmanager
-def refused_as(field: str, name: str = ""):
+def refused_as(field: str, name: str = "", params: dict | None = None):
     """Arithmetic and linear-algebra failures while building from the user's parameters (an
     overflow, a failed factorisation) become InputError(field), the built type `name` leading
-    the reason: parameters too extreme to build are bad input, not a crash."""
+    the reason: parameters too extreme to build are bad input, not a crash. `params` (path ->
+    the parameters built from, a dataclass, mapping, list or number): the reason names the most
+    extreme of their numbers, the likeliest cause, in plain words."""
     try:
         yield
     except (ArithmeticError, np.linalg.LinAlgError) as exc:
         lead = f"{name}: " if name else ""
-        raise InputError(field, f"{lead}its parameters cannot be built: {type(exc).__name__}: {exc}") from None
+        extreme = most_extreme_number(params or {})
+        if extreme is None:
+            raise InputError(field, f"{lead}its parameters cannot be built: {type(exc).__name__}: {exc}") from None
+        path, value = extreme
+        built = f"{field} ({name})" if name else field
+        why = one_line(exc) or type(exc).__name__
+        raise InputError(path, f"{value:g} is too {'large' if abs(value) > 1 else 'small'} to build {built} "
+                         f"from: its arithmetic leaves double precision ({why})") from None
+
+
+EXTREME_DECADES = 15  # a float beyond 1e15 or below 1e-15 in magnitude is a suspect when arithmetic fails
+
+
+def most_extreme_number(params: dict) -> tuple[str, float] | None:
+    """(path, value) of the nonzero float furthest from 1 in order of magnitude in `params` (path ->
+    dataclass, mapping, list or number, searched through), if it is at least EXTREME_DECADES from 1;
+    else None (integers are counts and seeds, not magnitudes)."""
+    best, found = float(EXTREME_DECADES), None
+    stack = list(params.items())
+    while stack:
+        path, value = stack.pop()
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):
+            stack += [(f"{path}.{f.name}", getattr(value, f.name)) for f in dataclasses.fields(value)]
+        elif isinstance(value, dict):
+            stack += [(f"{path}.{k}", v) for k, v in value.items()]
+        elif isinstance(value, (list, tuple)):
+            stack += [(f"{path}[{i}]", v) for i, v in enumerate(value)]
+        elif isinstance(value, float) and value != 0 and math.isfinite(value):
+            size = abs(math.log10(abs(value)))
+            if size >= best:
+                best, found = size, (path, float(value))
+    return found

@@ -10,6 +10,7 @@ alarming in a run that works as designed registers a `caveat` saying why, and `c
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import Callable
 
@@ -110,7 +111,8 @@ def compute_all(run) -> tuple[dict[str, float], dict[str, str]]:
     values, why = {}, {}
     for name in available(run.scenario):
         try:
-            with np.errstate(all="ignore"):
+            with np.errstate(all="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # numpy's nan-reductions of an empty or all-NaN run
                 values[name] = float(METRICS[name].compute(run))
         except BaseException as exc:  # a metric of a partial or odd trace; a plug-in's sys.exit too
             if from_a_signal(exc):

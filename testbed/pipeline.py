@@ -329,7 +329,8 @@ class Pipeline:
         `OutputCheck` (an allocator's command keys take their shapes from `actuators`)."""
         stages = []
         for slot in SLOTS:
-            with refused_as(f"pipeline.{slot}", configs[slot][0]):
+            # a slot is built from its own parameters and what the others publish (ctx.stages)
+            with refused_as(f"pipeline.{slot}", configs[slot][0], {f"pipeline.{s}": configs[s][1] for s in SLOTS}):
                 stages.append(build(slot, *configs[slot], ctx))
         checks = {}
         for slot, stage_object in zip(SLOTS, stages):

@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -119,7 +120,9 @@ def prepare(scenario, stages: dict | None = None):
     Parameters so extreme that building from them overflows or breaks a factorisation are bad
     input, named by the part being built (model, pipeline slot, reference)."""
     scenario = surroundings.in_orbit(scenario)  # an initial state given in LVLH, in ECI
-    with np.errstate(all="raise"), refused_as("model"):
+    built_from = {"model": scenario.model, "initial": scenario.initial, "orbit": scenario.orbit,
+                  "environment": scenario.environment}
+    with np.errstate(all="raise"), refused_as("model", params=built_from):
         plant = systems_registry.make_plant(scenario)
         plant.record_energy = scenario.stages["allocator"][0] == "none" and scenario.environment is None
         plant.initialise(scenario.initial)
@@ -136,7 +139,8 @@ def prepare(scenario, stages: dict | None = None):
     if stages:
         install_stages(pipeline, plant, stages)
     references_registry.check_system(scenario)  # after the stages: a reference describes them
-    with np.errstate(all="raise"), refused_as("reference"):
+    reference_params = {"reference": scenario.reference[1]} if scenario.reference else {}
+    with np.errstate(all="raise"), refused_as("reference", params=reference_params):
         reference = references_registry.prepare(scenario, plant) if scenario.reference else None
     return plant, pipeline, reference
 
@@ -375,7 +379,8 @@ class _ChunkStream:
     def _emit(self, chunk) -> None:
         # a metric's running reduction under- or overflows to a value that is not finite, which fails
         # its checks with the reason (metrics.compute_all): not a numpy warning, nor the run's divergence
-        with np.errstate(all="ignore"):
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # numpy's nan-reductions of an all-NaN window
             self.reductions.update(chunk)
         if self.writer is not None:
             self.writer.write(chunk)

@@ -354,5 +354,5 @@ def test_a_numeric_dispersion_on_an_empty_list_field_is_refused_not_drawn_empty(
     """An empty nominal list gave len 0 components: every case drew [] and nothing was dispersed."""
     with pytest.raises(InputError) as refused:
         draws({"uniform": [0.0, 1.0]}, 2, [])
-    assert refused.value.field == "x" and "give size: N" in refused.value.reason
+    assert refused.value.field == "sweep.dispersions.x" and "give size: N" in refused.value.reason
     assert np.array(draws({"uniform": [0.0, 1.0], "size": 2}, 5, [])).shape == (5, 2)

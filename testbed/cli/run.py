@@ -7,10 +7,10 @@ import json
 import sys
 
 from testbed import api
-from testbed.metrics import value_text
 from testbed.cli.commands import EXIT_FAILED, EXIT_OK, command, reported
 from testbed.cli.json_stdout import reserved_for_json
 from testbed.cli.progress import advance_to, building_notice, progress_bar
+from testbed.metrics import value_text
 from testbed.recording import live_view
 from testbed.recording.output_paths import checked_output, default_output
 

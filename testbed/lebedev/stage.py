@@ -69,8 +69,8 @@ def principal_axes_moments(inertia: np.ndarray, field: str = "model.inertia_kg_m
 @dataclass(kw_only=True)
 class LebedevLawParams:
     task: Literal["spin", "detumble"] = param("spin", doc="Task 1 spin-up / Task 2 detumble (section 5)")
-    spin_rate_deg_s: float | None = param(None, doc="task spin: the wanted spin Omega about z")
-    residual_rate_deg_s: float | None = param(None, gt=0, doc="task detumble: admissible residual spin Omega*")
+    spin_rate_deg_s: float | None = param(None, ge=-3600, le=3600, doc="task spin: the wanted spin Omega about z")
+    residual_rate_deg_s: float | None = param(None, gt=0, le=3600, doc="task detumble: admissible residual spin Omega*")
     gains_per_s: list[float] = param(length=3, doc="k1, k2, k3 of M_i = I_i k_i z_i; A + K must be stable")
 
     def validate(self, path: str) -> None:

@@ -47,8 +47,8 @@ def coast_bound(tracker_covariance) -> np.ndarray:
 @dataclass(kw_only=True)
 class MekfParams:
     first_fix: Literal["tracker", "scenario"] = param("tracker", doc="start from the first tracker sample, or the scenario's attitude")
-    initial_attitude_sigma_deg: float = param(1.0, gt=0, doc="1 sigma of the first fix, per axis")
-    initial_bias_sigma_deg_h: float = param(10.0, gt=0, doc="1 sigma of the initial bias estimate, per axis")
+    initial_attitude_sigma_deg: float = param(1.0, gt=0, le=180, doc="1 sigma of the first fix, per axis")
+    initial_bias_sigma_deg_h: float = param(10.0, gt=0, le=1e6, doc="1 sigma of the initial bias estimate, per axis")
     initial_covariance: list[list[float]] | None = param(None, length=6, doc="6 x 6 P0 [rad^2, rad^2/s, rad^2/s^2] in place of the sigmas")
     initial_attitude_error_deg: list[float] = param([0.0, 0.0, 0.0], length=3, doc="first_fix scenario: rotation vector off the true start")
     initial_bias_rad_s: list[float] = param([0.0, 0.0, 0.0], length=3, doc="initial bias estimate")

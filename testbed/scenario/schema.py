@@ -21,6 +21,10 @@ _MISSING = dataclasses.MISSING
 # Units are in the key names; a mass or an inertia must also lie where MuJoCo's compiler and
 # the squares in the dynamics stay exact: from a gyro rotor's to far beyond a space station's.
 UNIT_RANGES = {"_kg": (1e-6, 1e12), "_kg_m2": (1e-9, 1e12)}
+# Every number a scenario gives is 0 or lies within these in magnitude: the product or square of
+# two of them stays a normal double, so no parameter under- or overflows where it is first used
+# (1e-300 arcsec squared is below the smallest double). Far beyond any physical figure here.
+SMALLEST, LARGEST = 1e-100, 1e100
 
 
 def param(default=_MISSING, *, gt=None, ge=None, lt=None, le=None, length=None, doc=""):
@@ -75,6 +79,9 @@ def _convert(tp, value, path: str, meta: dict):
         if not math.isfinite(value):
             raise InputError(path, f"must be finite, got {quoted(value)}")
         _check_bounds(value, path, meta)
+        if value != 0 and not SMALLEST <= abs(value) <= LARGEST:
+            raise InputError(path, f"must be 0 or lie within {SMALLEST:g} ... {LARGEST:g} in magnitude (products "
+                             f"and squares of such numbers stay ordinary doubles), got {value:g}")
         return value
     if tp is int:
         if isinstance(value, bool) or not isinstance(value, int):

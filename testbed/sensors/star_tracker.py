@@ -35,8 +35,10 @@ NOISE_RANGE_ARCSEC = (1e-6, 648000.0)
 class StarTrackerParams:
     boresight: list[float] = param([0.0, 0.0, 1.0], length=3, doc="boresight direction, body axes (any length > 0)")
     x_axis: list[float] = param([1.0, 0.0, 0.0], length=3, doc="tracker x axis: its part normal to the boresight")
-    cross_boresight_noise_arcsec: float = param(ge=NOISE_RANGE_ARCSEC[0], le=NOISE_RANGE_ARCSEC[1], doc="1 sigma about each axis across the boresight")
-    about_boresight_noise_arcsec: float = param(ge=NOISE_RANGE_ARCSEC[0], le=NOISE_RANGE_ARCSEC[1], doc="1 sigma about the boresight (roll)")
+    cross_boresight_noise_arcsec: float = param(ge=NOISE_RANGE_ARCSEC[0], le=NOISE_RANGE_ARCSEC[1],
+                                                doc="1 sigma about each axis across the boresight")
+    about_boresight_noise_arcsec: float = param(ge=NOISE_RANGE_ARCSEC[0], le=NOISE_RANGE_ARCSEC[1],
+                                                doc="1 sigma about the boresight (roll)")
     sample_period_s: float | None = param(None, gt=0, doc="update period (default: the sensor period)")
     latency_s: float = param(0.0, ge=0, doc="age of the attitude a sample reports")
     outages_s: list[list[float]] = param([], doc="dropout windows [start, end) in s: no sample inside")

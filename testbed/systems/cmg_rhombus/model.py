@@ -17,7 +17,7 @@ from testbed.errors import InputError
 from testbed.systems.free_bus import set_bus_mass
 from testbed.math.validation import check_principal_inertia
 from testbed.scenario.shipped_files import compile_model, load_spec
-from testbed.scenario.schema import join, param
+from testbed.scenario.schema import UNIT_RANGES, join, param
 from testbed.systems.cmg_rhombus.cluster import N_CMG, ROTOR_SPEED_NUMERIC, rhombus_axes, unit_names
 from testbed.systems.cmg_rhombus.faults import FaultEvent, check_faults
 
@@ -79,6 +79,12 @@ class CmgUnitsParams:
             if not low <= self.rotor_speed_rpm <= high:
                 raise InputError(join(path, "rotor_speed_range_rpm"), f"[{low:g}, {high:g}] rpm must hold the "
                                  f"nominal rotor_speed_rpm = {self.rotor_speed_rpm:g}")
+        low, high = UNIT_RANGES["_kg_m2"]
+        spin_inertia = self.rotor_momentum_nms / self.rotor_speed
+        if not low <= spin_inertia <= high:  # the rotor MuJoCo would build (a singular mass matrix beyond)
+            raise InputError(join(path, "rotor_momentum_nms"), f"{self.rotor_momentum_nms:g} N m s at "
+                             f"{self.rotor_speed_rpm:g} rpm is a rotor spin inertia of {spin_inertia:.3g} kg m^2, "
+                             f"outside [{low:g}, {high:g}] kg m^2")
         for i, angle in enumerate(self.gimbal_angles_deg or []):
             # a gimbal angle is periodic; far beyond a turn the float keeps no fraction of a
             # degree (at 1e308 MuJoCo stops the run at its first step as diverged)

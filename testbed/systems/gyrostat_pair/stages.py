@@ -86,7 +86,7 @@ class PassThrough:
 class InvariantManifoldParams:
     gamma_1_s: float = param(gt=0, doc="decay rate of the manifold error eta (eq. 9)")
     initial_state_rad_s: list[float] = param([0.0, 0.0, 0.0], length=3, doc="observer state p(0)")
-    substeps: int = param(2, ge=1, doc="RK4 steps per control period")
+    substeps: int = param(2, ge=1, le=1000, doc="RK4 steps per control period (each costs about the tick's own work)")
 
 
 @stage("estimator", "invariant_manifold", InvariantManifoldParams)
