@@ -166,8 +166,9 @@ def main() -> int:
             rounds["baseline"].append(probe(Path(tmp), cases, "baseline"))
             rounds["current"].append(probe(REPO, cases, "current"))
             print(f"  round {k + 1} of {args.rounds} done", flush=True)
-    print(f"\n{'':<29} {'ms per simulated s (best)':^35}")
-    print(f"{'scenario':<22} {'sim s':>6} {'wall: base':>11} {'current':>8} {'cpu: base':>10} {'current':>8} "
+    width = max(len(name) for name in names)
+    print(f"\n{'':<{width + 7}} {'ms per simulated s (best)':^35}")
+    print(f"{'scenario':<{width}} {'sim s':>6} {'wall: base':>11} {'current':>8} {'cpu: base':>10} {'current':>8} "
           f"{'ratio (best)':>13} {'ratio (median)':>15} {'cpu ratio':>10}  judged on")
     regressions, loaded = [], []
     for name in names:
@@ -180,7 +181,7 @@ def main() -> int:
         cpu = now_cpu / base_cpu
         busy = [side for side, runs in (("baseline", base), ("current", now)) if busy_machine(runs)]
         judged, figure = (cpu, "CPU") if busy else (ratio, "wall")
-        print(f"{name:<22} {now[0]['sim_s']:>6g} {1e3 * min(base_wall):>11.2f} {1e3 * min(now_wall):>8.2f} "
+        print(f"{name:<{width}} {now[0]['sim_s']:>6g} {1e3 * min(base_wall):>11.2f} {1e3 * min(now_wall):>8.2f} "
               f"{1e3 * base_cpu:>10.2f} {1e3 * now_cpu:>8.2f} {ratio:>13.3f} {paired:>15.3f} {cpu:>10.3f}  {figure}")
         if busy:
             loaded.append(f"{name} ({', '.join(busy)})")
