@@ -95,7 +95,10 @@ def probe(tree: Path, cases: dict[str, list[str]], side: str) -> dict:
     if process.returncode != 0:
         last = (err.strip().splitlines() or ["no output"])[-1]
         raise BenchError(f"the {side} tree's runs failed (exit {process.returncode}): {last}")
-    report = json.loads(out.strip().splitlines()[-1])
+    try:
+        report = json.loads(out.strip().splitlines()[-1])
+    except (ValueError, IndexError):
+        raise BenchError(f"the {side} tree's runs printed no result") from None
     ran = Path(report["testbed"]).resolve().parent.parent
     if ran != tree.resolve():  # an installed testbed shadowing the tree would compare a tree with itself
         raise BenchError(f"the {side} runs imported testbed from {ran}, not from {tree}")
@@ -103,6 +106,27 @@ def probe(tree: Path, cases: dict[str, list[str]], side: str) -> dict:
         if run["status"] != "ok":
             raise BenchError(f"{name} on the {side} tree ended {run['status']}: {run['error']}")
     return report["runs"]
+
+
+def read_baseline() -> dict:
+    """bench/speed_baseline.json, checked: ref (a git ref), max_growth (> 0), rounds (>= 1),
+    scenarios (name -> list of override strings)."""
+    try:
+        config = json.loads(BASELINE_FILE.read_text())
+    except (OSError, ValueError) as exc:
+        raise BenchError(f"{BASELINE_FILE.name}: cannot be read as JSON ({exc})") from None
+    checks = {"ref": lambda v: isinstance(v, str) and v.strip() != "",
+              "max_growth": lambda v: isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0,
+              "rounds": lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 1,
+              "scenarios": lambda v: isinstance(v, dict) and v and all(
+                  isinstance(o, list) and all(isinstance(x, str) for x in o) for o in v.values())}
+    reasons = {"ref": "must be a git ref (a commit hash or name)", "max_growth": "must be a number > 0",
+               "rounds": "must be an integer >= 1",
+               "scenarios": "must map scenario names to lists of key.path=value overrides"}
+    for key, ok in checks.items():
+        if key not in config or not ok(config[key]):
+            raise BenchError(f"{BASELINE_FILE.name}: {key}: {reasons[key]}")
+    return config
 
 
 def per_sim_second(runs: list[dict], key: str) -> list[float]:
@@ -118,9 +142,9 @@ def busy_machine(runs: list[dict]) -> bool:
 def main() -> int:
     signal.signal(signal.SIGTERM, _ended_by_signal)
     signal.signal(signal.SIGHUP, _ended_by_signal)
-    config = json.loads(BASELINE_FILE.read_text())
+    config = read_baseline()
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--rounds", type=int, default=config.get("rounds", 5),
+    parser.add_argument("--rounds", type=int, default=config["rounds"],
                         help="alternating baseline/current pairs (default %(default)s)")
     parser.add_argument("--baseline", default=config["ref"], help="the commit to compare with (default: the file's)")
     parser.add_argument("--scenario", action="append", choices=sorted(config["scenarios"]),
@@ -142,8 +166,9 @@ def main() -> int:
             rounds["baseline"].append(probe(Path(tmp), cases, "baseline"))
             rounds["current"].append(probe(REPO, cases, "current"))
             print(f"  round {k + 1} of {args.rounds} done", flush=True)
-    print(f"\n{'':<29} {'ms per simulated s (best)':^35}")
-    print(f"{'scenario':<22} {'sim s':>6} {'wall: base':>11} {'current':>8} {'cpu: base':>10} {'current':>8} "
+    width = max(len(name) for name in names)
+    print(f"\n{'':<{width + 7}} {'ms per simulated s (best)':^35}")
+    print(f"{'scenario':<{width}} {'sim s':>6} {'wall: base':>11} {'current':>8} {'cpu: base':>10} {'current':>8} "
           f"{'ratio (best)':>13} {'ratio (median)':>15} {'cpu ratio':>10}  judged on")
     regressions, loaded = [], []
     for name in names:
@@ -156,7 +181,7 @@ def main() -> int:
         cpu = now_cpu / base_cpu
         busy = [side for side, runs in (("baseline", base), ("current", now)) if busy_machine(runs)]
         judged, figure = (cpu, "CPU") if busy else (ratio, "wall")
-        print(f"{name:<22} {now[0]['sim_s']:>6g} {1e3 * min(base_wall):>11.2f} {1e3 * min(now_wall):>8.2f} "
+        print(f"{name:<{width}} {now[0]['sim_s']:>6g} {1e3 * min(base_wall):>11.2f} {1e3 * min(now_wall):>8.2f} "
               f"{1e3 * base_cpu:>10.2f} {1e3 * now_cpu:>8.2f} {ratio:>13.3f} {paired:>15.3f} {cpu:>10.3f}  {figure}")
         if busy:
             loaded.append(f"{name} ({', '.join(busy)})")

@@ -4,7 +4,8 @@ baseline's tree or at the current one), and prints one JSON line: the `testbed` 
 and, per scenario, its wall and CPU seconds and its simulated seconds. Imports and the
 scenario's loading are outside the timed span: the figure is the run's own.
 
-Only the public API (`testbed.load`, `testbed.run`) is used, so an older tree runs it too.
+Only the public API (`testbed.load`, `testbed.run` with `keep_trace`) is used, so any tree that
+has them runs it; an older one fails with its error named.
 
     python bench/speed_probe.py '{"cmg_open_loop": ["sim.duration_s=120", "reference=", "checks={}"]}'
 """

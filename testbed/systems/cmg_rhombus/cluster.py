@@ -8,6 +8,8 @@ and g_i x e_i = s_i z, so a positive MuJoCo hinge angle b_i about g_i is exactly
 rotor momenta, H(beta) and dH/dbeta from the compiled model (never typed in a second time).
 """
 
+import math
+
 import mujoco
 import numpy as np
 
@@ -78,7 +80,9 @@ class ClusterGeometry:
             self.h = float(self.rotor_momentum.mean())
             self.relative_momentum = None
         self.gimbal_axis_inertia = np.zeros(len(self.gimbal_axes))
-        self._turned_key, self._turned = None, None  # turned_axes' last angles and axes
+        # turned_axes_floats' last angles and axes, and turned_axes' arrays of them once asked for
+        self._turned_key, self._turned_floats, self._turned = None, None, None
+        self._spin_zero_floats, self._turn_floats = self.spin_axes_zero.tolist(), self.turn_axes.tolist()
 
     def with_gimbal_inertia(self, cmg_inertia) -> "ClusterGeometry":
         """This geometry, told the inertia K_i of each gimbal frame with its rotor about their
@@ -121,22 +125,37 @@ class ClusterGeometry:
 
     def turned_axes(self, beta):
         """(cos b_i e_i + sin b_i s_i z, -sin b_i e_i + cos b_i s_i z), (..., 4, 3) each: the unit
-        spin axes and their derivatives along beta_i (the unit Jacobian's columns, as rows), from
-        one evaluation of cos and sin. Those of the last single set of angles are kept and handed
-        out as they are, read-only: the steering stage and the gimbal servo ask for the same
-        angles in every control tick."""
+        spin axes and their derivatives along beta_i (the unit Jacobian's columns, as rows). For
+        one set of angles (4,) they are those of `turned_axes_floats` (one cos and sin a gimbal,
+        kept for the last angles), handed out as they are, read-only: the steering stage and the
+        gimbal servo ask for the same angles in every control tick."""
         beta = np.asarray(beta, dtype=float)
-        key = beta.tobytes() if beta.ndim == 1 else None
-        if key is not None and key == self._turned_key:
-            return self._turned
-        angle = beta[..., None]
-        c, s = np.cos(angle), np.sin(angle)
-        turned = (c * self.spin_axes_zero + s * self.turn_axes, -s * self.spin_axes_zero + c * self.turn_axes)
-        if key is not None:
-            for axes in turned:
+        if beta.ndim != 1:  # a history: broadcast
+            angle = beta[..., None]
+            c, s = np.cos(angle), np.sin(angle)
+            return c * self.spin_axes_zero + s * self.turn_axes, -s * self.spin_axes_zero + c * self.turn_axes
+        floats = self.turned_axes_floats(beta)
+        if self._turned is None:
+            self._turned = tuple(np.array(rows) for rows in floats)
+            for axes in self._turned:
                 axes.flags.writeable = False
-            self._turned_key, self._turned = key, turned
-        return turned
+        return self._turned
+
+    def turned_axes_floats(self, beta) -> tuple[list, list]:
+        """`turned_axes` at one set of angles beta (4,) [rad] as plain floats, (spin axes, Jacobian
+        columns), 4 lists of 3 each, kept for the last angles asked for (not to be modified): the
+        sums and products numpy's broadcast would do, on math.cos and math.sin, for a caller that
+        works on floats (the gimbal servo's tick)."""
+        beta = np.asarray(beta, dtype=float)
+        key = beta.tobytes()
+        if key != self._turned_key:
+            spin, columns = [], []
+            for b, (e0, e1, e2), (t0, t1, t2) in zip(beta.tolist(), self._spin_zero_floats, self._turn_floats):
+                c, s = math.cos(b), math.sin(b)
+                spin.append([c * e0 + s * t0, c * e1 + s * t1, c * e2 + s * t2])
+                columns.append([-s * e0 + c * t0, -s * e1 + c * t1, -s * e2 + c * t2])
+            self._turned_key, self._turned_floats, self._turned = key, (spin, columns), None
+        return self._turned_floats
 
     def spin_axes(self, beta):
         """Unit spin axes at gimbal angles beta, (..., 4, 3): cos b_i e_i + sin b_i s_i z."""

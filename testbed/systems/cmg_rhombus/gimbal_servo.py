@@ -241,9 +241,8 @@ class FeedForwardServo(IntVelocityServo):
         D_ij = -h_i h_j J_i^T R J_j - [i = j] h_i w . s_i (docs/theory/gimbal-servo.md), so
         (D x)_i = -h_i (J_i . R sum_j h_j x_j J_j + (w . s_i) x_i): D itself is never formed.
         J_i and s_i are the cluster's turned axes, kept for the tick's angles (the steering stage
-        asks for the same ones); the rest in plain floats (cheaper than numpy for 4 x 3 numbers)."""
-        spin, columns = self.geometry.turned_axes(self._angle)
-        spin, columns = spin.tolist(), columns.tolist()
+        asks for the same ones), as floats; all in plain floats (cheaper than numpy for 4 x 3 numbers)."""
+        spin, columns = self.geometry.turned_axes_floats(self._angle)
         h = (self.geometry.spin_inertia * self._rotor_rate).tolist()
         w0, w1, w2 = self._bus_rate.tolist()
         t0 = t1 = t2 = 0.0  # sum_j h_j x_j J_j
