@@ -1,5 +1,7 @@
 """Fixtures several test files share."""
 
+import signal
+
 import pytest
 
 from campaign_cases import LOGGED_LAW
@@ -12,3 +14,12 @@ def logged_law(tmp_path_factory) -> str:
     path = tmp_path_factory.mktemp("plugins") / "logged_law.py"
     path.write_text(LOGGED_LAW)
     return str(path)
+
+
+# A suite started as a background job of a non-interactive shell inherits SIGINT and SIGQUIT
+# ignored, and so would every command the tests start: the tests that send them would fail for
+# the launcher's sake. Python leaves an inherited SIG_IGN as it is; give both their usual action.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+if signal.getsignal(signal.SIGQUIT) is signal.SIG_IGN:
+    signal.signal(signal.SIGQUIT, signal.SIG_DFL)
