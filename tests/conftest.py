@@ -1,5 +1,7 @@
 """Fixtures several test files share."""
 
+import signal
+
 import pytest
 
 from campaign_cases import LOGGED_LAW
@@ -20,3 +22,10 @@ def _own_working_folder(tmp_path, monkeypatch):
     lands there, never in the checkout, and one test's trace never meets another's of the same
     file stem (a run refuses to replace the trace of another scenario file)."""
     monkeypatch.chdir(tmp_path)
+# A suite started as a background job of a non-interactive shell inherits SIGINT and SIGQUIT
+# ignored, and so would every command the tests start: the tests that send them would fail for
+# the launcher's sake. Python leaves an inherited SIG_IGN as it is; give both their usual action.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+if signal.getsignal(signal.SIGQUIT) is signal.SIG_IGN:
+    signal.signal(signal.SIGQUIT, signal.SIG_DFL)

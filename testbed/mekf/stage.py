@@ -153,8 +153,9 @@ class MekfEstimator:
         self._advance(t - self.latency)  # no sample (an outage): the filter keeps up all the same
         now = self._predicted()
         p = now.covariance
-        self._check_coast(t, updated, 3.0 * np.sqrt(np.diag(p)[:3]))
+        sigma3 = 3.0 * np.sqrt(np.diag(p))
+        self._check_coast(t, updated, sigma3[:3])
         return {"quat": now.quat, "omega": measurement["gyro_rate"] - now.bias, "bias": now.bias,
-                "attitude_sigma3": 3.0 * np.sqrt(np.diag(p)[:3]), "bias_sigma3": 3.0 * np.sqrt(np.diag(p)[3:]),
+                "attitude_sigma3": sigma3[:3], "bias_sigma3": sigma3[3:],
                 "covariance": p.ravel(), "innovation": self.innovation, "nis": self.nis,
                 "updated": np.array([updated])}
