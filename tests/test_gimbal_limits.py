@@ -114,6 +114,8 @@ def test_no_shipped_scenario_exceeds_imposed_gimbal_limits(name):
     question here), and as shipped the counts are 0 too (tests/data/pinned_metrics.json)."""
     scenario = load_scenario(name)
     start = scenario.model.gimbal_angles_deg
+    if start is None:  # a cmg_cluster array's own starting angles
+        start = scenario.model.units().gimbal_angles_deg
     limits = "[" + ", ".join(f"[{a - 60:.9g}, {a + 60:.9g}]" for a in start) + "]"
     overrides = [f"pipeline.allocator.gimbal_angle_limits_deg={limits}",
                  "pipeline.allocator.gimbal_acceleration_max_deg_s2=100"]
