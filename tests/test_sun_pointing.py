@@ -16,6 +16,7 @@ from testbed.orbit.config import epoch_parts
 from testbed.orbit.time_scales import Epoch
 
 
+@pytest.mark.slow
 def test_the_sun_pointing_law_puts_body_z_on_the_sun_and_y_off_the_ecliptic_pole():
     """A rigid bus on an ideal torque, 650 km at 60 deg, 2028-09-10: after 100 s its z axis is
     within 1e-4 deg of the Sun as seen from the orbit (the parallax, up to 10", included) and its
