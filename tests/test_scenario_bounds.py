@@ -110,7 +110,8 @@ PINNED = {
         "estimation_error_startup_deg_s": {"min": 0.01},
         "max_deviation_from_continuous_deg_s": {"max": 0.01},
     },
-    "orbit_libration": {"final_omega_rad_s": {"max": 1.2e-3}},
+    "orbit_libration": {"final_omega_rad_s": {"max": 1.2e-3}, "pitch_libration_error_rel": {"max": 5.0e-3},
+                        "roll_yaw_libration_error_rel": {"max": 1.0e-2}},
     "orbit_momentum_buildup": {
         "max_pointing_error_deg": {"max": 0.01},
         "peak_envelope_share": {"max": 0.5},

@@ -49,6 +49,44 @@ def max_pointing_error_deg(run) -> float:
     return float(np.degrees(run.reduced(POINTING_SETTLED)))
 
 
+@dataclass(frozen=True)
+class SettledAngleBetween(_OfSignal):
+    """max over the samples after `after_s` [s] of the rotation angle [rad] between the
+    attitudes (w, x, y, z) of signals `key` and `other`: 2 atan2(|v|, |w|) of q_key^-1 q_other."""
+
+    other: str = ""
+    after_s: float = 0.0
+
+    def update(self, state, chunk):
+        if self.key not in chunk.signals or self.other not in chunk.signals or len(chunk.time) == 0:
+            return state
+        late = chunk.time > self.after_s
+        a, b = chunk.signals[self.key][late], chunk.signals[self.other][late]
+        if len(a) == 0:
+            return state
+        dot = np.abs(np.sum(a * b, axis=1))   # |w| of q_a^-1 q_b: the cosine of half the angle
+        sine = np.linalg.norm(a[:, :1] * b[:, 1:] - b[:, :1] * a[:, 1:] - np.cross(a[:, 1:], b[:, 1:]), axis=1)
+        angles = 2.0 * np.arctan2(sine, dot)
+        angles = angles[np.isfinite(angles)]   # rows where one of the two was not recorded
+        if angles.size == 0:
+            return state
+        peak = float(np.max(angles))
+        return peak if state is None else max(state, peak)
+
+    def result(self, state) -> float:
+        return float("nan") if state is None else float(state)
+
+
+TRUE_POINTING_SETTLED = SettledAngleBetween("truth/quat", other="law/target_quat", after_s=60.0)
+
+
+@metric("max_true_pointing_error_deg", applies=_pointing, uses=(TRUE_POINTING_SETTLED,))
+def max_true_pointing_error_deg(run) -> float:
+    """max over t > 60 s of the angle between the true attitude and the law's target [deg] (the
+    law's own error is against its estimate: max_pointing_error_deg)."""
+    return float(np.degrees(run.reduced(TRUE_POINTING_SETTLED)))
+
+
 def _dipole_use(scenario):
     limits = tuple(scenario.environment.magnetorquers.max_dipole_am2)
     return (DipoleUse("truth/magnetorquer_dipole", limits),)

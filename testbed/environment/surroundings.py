@@ -2,8 +2,9 @@
 periods) the orbit's state at the plant's time, the Sun and the shadow, the field, each
 torque the scenario switches on, and the magnetorquers' dipole from the desaturation law;
 their sum is written into MuJoCo's `xfrc_applied` of the bus (world axes), held until the
-next update at its value extrapolated to the period's midpoint (midpoint_hold.py). The orbit is read from its own grid (testbed.orbit.propagation): the attitude
-never changes it. Every value is recorded with the truth (`truth/orbit_position`, ...,
+next update at its value extrapolated to the period's midpoint (midpoint_hold.py). What
+depends on the orbit alone is read from blocks of update instants (along_orbit.py): the
+attitude never changes it. Every value is recorded with the truth (`truth/orbit_position`, ...,
 docs/theory/environment.md "Trace")."""
 
 from __future__ import annotations

@@ -1,9 +1,11 @@
 """The `pointing` law: hold an attitude fixed in a target frame with the tracking law
-(testbed.guidance.tracking_law): `inertial` (ECI) or `nadir` (the orbit's LVLH frame, x
-along-track, y opposite the orbit normal, z nadir: testbed.orbit.frames).
+(testbed.guidance.tracking_law): `inertial` (ECI), `nadir` (the orbit's LVLH frame, x
+along-track, y opposite the orbit normal, z nadir: testbed.orbit.frames) or `sun` (z toward
+the Sun, y opposite the ecliptic pole: testbed.guidance.sun_frame).
 
 The target attitude is Λ*(t) = q_frame(t) ∘ q_offset, its rate ω* = R(q_offset)^T ω_frame and
-acceleration likewise (ω_frame = (0, -|h|/r², 0) in LVLH, zero for inertial), from the law's own
+acceleration likewise (ω_frame = (0, -|h|/r², 0) in LVLH, (0, -ω_sun, 0) in the Sun frame, zero
+for inertial), from the law's own
 copy of the orbit (the scenario's `orbit:` block, propagated on the same grid as the truth's:
 an on-board ephemeris, not the truth). Records `law/torque`, `target_quat`, `target_omega`, and
 the attitude error in the target frame as a rotation vector `attitude_error` [rad] and its
@@ -19,6 +21,7 @@ import mujoco
 import numpy as np
 
 from testbed.errors import InputError
+from testbed.guidance.sun_frame import sun_frame
 from testbed.guidance.tracking_law import TrackingLaw
 from testbed.math.quaternion import quat_conj, quat_rotate, rotation_vector
 from testbed.math.validation import unit_quaternion
@@ -31,9 +34,10 @@ LAW_PATH = "pipeline.law"
 
 @dataclass(kw_only=True)
 class PointingParams:
-    target: Literal["inertial", "nadir"] = param("nadir", doc="frame the attitude is held in")
+    target: Literal["inertial", "nadir", "sun"] = param("nadir", doc="frame the attitude is held in (sun: "
+                                                        "z toward the Sun, y opposite the ecliptic pole)")
     quat: list[float] | None = param(None, length=4, doc="attitude (w, x, y, z) to hold, body to target frame "
-                                     "(default: the initial attitude for inertial, identity for nadir)")
+                                     "(default: the initial attitude for inertial, identity for nadir and sun)")
     natural_frequency_rad_s: float = param(0.5, gt=0, doc="tracking-error natural frequency")
     damping_ratio: float = param(0.9, ge=0, doc="tracking-error damping ratio")
 
@@ -83,10 +87,12 @@ class Pointing:
     def __init__(self, params: PointingParams, ctx):
         require_free_body(ctx, "law", "pointing")
         require_attitude_estimate(ctx, "the pointing law")
-        if params.target == "nadir":
+        if params.target in ("nadir", "sun"):
             if ctx.orbit is None:
-                raise InputError(join(LAW_PATH, "target"), "nadir pointing needs an orbit: add an orbit: block")
-            program = HeldAttitude(params.quat or [1.0, 0.0, 0.0, 0.0], lvlh_frame(ctx.orbit.propagator()))
+                raise InputError(join(LAW_PATH, "target"), f"{params.target} pointing needs an orbit: add an orbit: block")
+            frame = (lvlh_frame(ctx.orbit.propagator()) if params.target == "nadir"
+                     else sun_frame(ctx.orbit.propagator(), ctx.orbit.epoch()))
+            program = HeldAttitude(params.quat or [1.0, 0.0, 0.0, 0.0], frame)
         else:
             program = HeldAttitude(params.quat or ctx.initial.quat)
         try:

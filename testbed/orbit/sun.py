@@ -10,17 +10,22 @@ from testbed.orbit.constants import AU_M, EARTH_RADIUS_M
 from testbed.orbit.time_scales import SECONDS_PER_DAY, Epoch
 
 
+def sun_state(epoch: Epoch, t: float) -> tuple[np.ndarray, np.ndarray]:
+    """Geometric geocentric Sun position [m] and velocity [m/s], GCRS axes, at run time t [s]:
+    minus the Earth's heliocentric position and velocity of erfa.epv00."""
+    heliocentric, _ = erfa.epv00(*epoch.tt(t))
+    return (-AU_M * np.asarray(heliocentric["p"], float),
+            -AU_M / SECONDS_PER_DAY * np.asarray(heliocentric["v"], float))
+
+
 def sun_positions(epoch: Epoch, times) -> np.ndarray:
-    """Geometric geocentric Sun positions (N, 3) [m], GCRS axes, at run times [s]: minus the
-    Earth's heliocentric position of erfa.epv00 at the middle time, moved along its velocity
-    (over half a span of 6 h the path's curvature, 0.5", lies along the line of sight: the
-    direction is within 0.01"; aberration, 20", is left out)."""
+    """Geometric geocentric Sun positions (N, 3) [m], GCRS axes, at run times [s]: `sun_state`
+    at the middle time, moved along its velocity (over half a span of 6 h the path's curvature,
+    0.5", lies along the line of sight: the direction is within 0.01"; aberration, 20", is left out)."""
     times = np.atleast_1d(np.asarray(times, float))
     middle = 0.5 * (times[0] + times[-1])
-    heliocentric, _ = erfa.epv00(*epoch.tt(middle))
-    position = np.asarray(heliocentric["p"], float)
-    velocity = np.asarray(heliocentric["v"], float) / SECONDS_PER_DAY  # AU/s
-    return -AU_M * (position + (times - middle)[:, None] * velocity)
+    position, velocity = sun_state(epoch, middle)
+    return position + (times - middle)[:, None] * velocity
 
 
 def in_cylindrical_shadow(r, sun, radius: float = EARTH_RADIUS_M) -> bool:

@@ -1,9 +1,14 @@
 """The run's clock against the time scales (pyerfa, the IAU's SOFA routines): t = 0 is a UTC
 instant kept as a two-part Julian date (day, fraction), so no precision is lost in one double;
 the run's seconds are SI seconds on TAI. TT = TAI + 32.184 s; UT1 is taken as UTC (no IERS
-table is read, so nothing is downloaded: |UT1 - UTC| < 0.9 s, docs/theory/environment.md)."""
+table is read, so nothing is downloaded: |UT1 - UTC| < 0.9 s, docs/theory/environment.md).
+Outside the years its leap-second table knows (before 1960, after it expires) SOFA warns of a
+"dubious year" and goes on with the nearest offset: that is the model here, so the warning is
+kept quiet."""
 
 from __future__ import annotations
+
+import warnings
 
 import erfa
 import numpy as np
@@ -16,7 +21,7 @@ class Epoch:
 
     def __init__(self, utc1: float, utc2: float):
         self.utc = (float(utc1), float(utc2))
-        self._tai = erfa.utctai(*self.utc)
+        self._tai = _quiet(erfa.utctai, *self.utc)
 
     def tai(self, t) -> tuple[np.ndarray, np.ndarray]:
         """Two-part TAI Julian date of run times t [s]."""
@@ -28,7 +33,7 @@ class Epoch:
 
     def ut1(self, t) -> tuple[np.ndarray, np.ndarray]:
         """Two-part UT1 Julian date of run times t [s], taken as UTC (erfa.taiutc)."""
-        return erfa.taiutc(*self.tai(t))
+        return _quiet(erfa.taiutc, *self.tai(t))
 
     def utc_datetime64(self, t) -> np.ndarray:
         """UTC of run times t [s] as numpy datetime64[us] (what pymsis and ppigrf take)."""
@@ -39,4 +44,11 @@ class Epoch:
 
 def utc_parts(year: int, month: int, day: int, hour: int, minute: int, second: float) -> tuple[float, float]:
     """Two-part UTC Julian date of a calendar date and time (erfa.dtf2d, leap seconds known)."""
-    return tuple(map(float, erfa.dtf2d("UTC", year, month, day, hour, minute, second)))
+    return tuple(map(float, _quiet(erfa.dtf2d, "UTC", year, month, day, hour, minute, second)))
+
+
+def _quiet(function, *args):
+    """function(*args) with SOFA's "dubious year" warning kept quiet (module doc)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", erfa.ErfaWarning)
+        return function(*args)

@@ -22,7 +22,6 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.math.quaternion import quat_from_rotation_vector, quat_mul
 from testbed.scenario.schema import join, param
-from testbed.sensors.exclusion import DIRECTIONS
 from testbed.stages.white_noise import WhiteNoise
 
 ARCSEC = np.pi / (180.0 * 3600.0)
@@ -42,8 +41,10 @@ class StarTrackerParams:
     sample_period_s: float | None = param(None, gt=0, doc="update period (default: the sensor period)")
     latency_s: float = param(0.0, ge=0, doc="age of the attitude a sample reports")
     outages_s: list[list[float]] = param([], doc="dropout windows [start, end) in s: no sample inside")
-    sun_exclusion_deg: float | None = param(None, gt=0, lt=180, doc="Sun exclusion half-angle (needs the orbit geometry)")
-    earth_exclusion_deg: float | None = param(None, gt=0, lt=180, doc="Earth exclusion half-angle (needs the orbit geometry)")
+    sun_exclusion_deg: float | None = param(None, gt=0, lt=180, doc="no sample while the Sun is within this "
+                                            "angle of the boresight (needs an orbit)")
+    earth_exclusion_deg: float | None = param(None, gt=0, lt=180, doc="no sample while the Earth's limb is "
+                                              "within this angle of the boresight (needs an orbit)")
     seed: int = param(0, ge=0, doc="noise seed: the same seed gives the same samples bit for bit")
 
     def validate(self, path: str) -> None:
@@ -56,10 +57,6 @@ class StarTrackerParams:
         for i, window in enumerate(self.outages_s):
             if len(window) != 2 or not window[0] < window[1]:
                 raise InputError(join(path, f"outages_s[{i}]"), f"must be [start, end] with start < end, got {window}")
-        for name, method in DIRECTIONS.items():
-            if getattr(self, name) is not None:
-                raise InputError(join(path, name), f"needs the {name.split('_')[0].capitalize()} direction "
-                                 f"({method}), which no system gives yet (the orbit geometry)")
 
 
 def tracker_frame(params: StarTrackerParams) -> np.ndarray:

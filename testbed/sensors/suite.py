@@ -3,7 +3,9 @@ its own rate (a whole multiple of the sensor period, sim.estimator_period_s).
 
 Keys (recorded as `sensor/<key>`): `tracker_quat` (w, x, y, z) the last attitude sample,
 `tracker_stamp` [s] the time it shows (its sample time less the latency), `tracker_new` 1 at a
-call that brought a new sample, `tracker_available` 0 inside an outage; `gyro_rate` [rad/s]
+call that brought a new sample, `tracker_available` 0 inside an outage or an exclusion, and
+with an exclusion angle `tracker_excluded`, what blinds it (1 the Sun, 2 the Earth, 3 both:
+exclusion.py); `gyro_rate` [rad/s]
 the last mean rate, `gyro_stamp` [s] the end of its interval, and `gyro_bias` [rad/s] the
 package's true bias there (for the trace and the bias metrics; no estimator reads it).
 """
@@ -14,9 +16,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from testbed.errors import InputError
 from testbed.math.quaternion import quat_conj, quat_mul, rotation_vector
 from testbed.pipeline import require_free_body, stage
 from testbed.scenario.schema import whole_multiple
+from testbed.sensors.exclusion import Exclusion
 from testbed.sensors.gyro_package import GyroPackage, GyroPackageParams
 from testbed.sensors.star_tracker import StarTracker, StarTrackerParams, measurement_covariance
 
@@ -72,6 +76,15 @@ class StarTrackerGyro:
         self.called = every["called"]
         self.tracker_every, self.gyro_every, self.delay = every["tracker"], every["gyro"], every["latency"]
         self.tracker = StarTracker(params.star_tracker, self.delay)
+        tracker = params.star_tracker
+        self.exclusion = None
+        if tracker.sun_exclusion_deg is not None or tracker.earth_exclusion_deg is not None:
+            field = "sun_exclusion_deg" if tracker.sun_exclusion_deg is not None else "earth_exclusion_deg"
+            if ctx.orbit is None:
+                raise InputError(f"pipeline.sensor.star_tracker.{field}", "an exclusion needs the orbit's "
+                                 "geometry: add an orbit: block")
+            self.exclusion = Exclusion(self.tracker.frame[:, 2], tracker.sun_exclusion_deg,
+                                       tracker.earth_exclusion_deg, ctx.orbit, sensor_period(ctx), ctx.end_time)
         self.gyro = GyroPackage(params.gyro, self.gyro_every * self.called)
         self.seeds = {"star_tracker": params.star_tracker.seed, "gyro": params.gyro.seed}
         self.tick = 0
@@ -96,6 +109,10 @@ class StarTrackerGyro:
             out["gyro_bias"] = self.gyro.bias.copy()
         self.tracker.seen(quat)
         available = self.tracker.available(t)
+        if self.exclusion is not None:
+            excluded = self.exclusion.cause(t, quat)
+            out["tracker_excluded"] = np.array([float(excluded)])
+            available = available and not excluded
         fresh = available and self.tick % self.tracker_every == 0
         if fresh:
             out["tracker_quat"] = self.tracker.sample()
