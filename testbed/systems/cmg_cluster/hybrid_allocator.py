@@ -15,10 +15,16 @@ minimum-norm allocation delivers within the motors' limits: u = A^+ M fits when
 
     tau_f = min_i u_max,i / |(A^+)_i|     ((A^+)_i the i-th row of the pseudo-inverse).
 
+What the CMGs' steering does not deliver of M_c (its shortfall: a demand scaled to the gimbal-rate
+limit, or the torque an SR-type law gives up near a singular set) the wheels take too, on top of
+M_w, when `wheels_take_shortfall` (the default; eq. (HY-3)): M_w' = M_w + (M_c - M_c,delivered).
+Their own limits then scale their whole part.
+
 Each part goes to its own allocator (the steering law's and `wheel_pinv` or `wheel_minimax`),
 built on the part of the bus it drives; each adds w x (its own H) unless the law compensates
 w x H itself, so together they add w x (H_c + H_w). The command carries both actuators' keys;
-`torque_delivered` and `momentum` are the sums, `wheel_share` records |M_w| / |M|.
+`torque_delivered` and `momentum` are the sums, `wheel_share` records |M_w| / |M| and `shortfall`
+the CMGs' (HY-3).
 """
 
 from __future__ import annotations
@@ -45,6 +51,7 @@ PATH = "pipeline.allocator"
 class HybridSplitParams(SteeringParams, WheelAllocationParams):
     steering: str = param("minimax", doc="the CMGs' steering law (any allocator of the steering family)")
     wheel_allocator: Literal["wheel_pinv", "wheel_minimax"] = param("wheel_pinv", doc="how the wheels' part is spread")
+    wheels_take_shortfall: bool = param(True, doc="the wheels also take what the CMGs' steering did not deliver (HY-3)")
     wheel_torque_nm: float | None = param(None, gt=0, le=1e6, doc="tau_f: the largest torque the wheels take "
                                           "(default: the most they deliver in every direction, eq. (HY-2))")
 
@@ -98,6 +105,7 @@ class HybridSplit:
             ctx, description=bus.wheels))
         self.limit = (isotropic_wheel_torque(self.wheels.inverse, bus.wheels.torque_max)
                       if params.wheel_torque_nm is None else params.wheel_torque_nm)
+        self.take_shortfall = params.wheels_take_shortfall
         self.min_wheel_scale = 1.0
 
     @property
@@ -111,8 +119,11 @@ class HybridSplit:
     def allocate(self, t, demand, estimate, actuators):
         torque = np.asarray(demand.get("torque", np.zeros(3)), dtype=float)
         fine = fine_part(torque, self.limit)
-        wheels = self.wheels.allocate(t, demand | {"torque": fine}, estimate, actuators)
         cmgs = self.steering.allocate(t, demand | {"torque": torque - fine}, estimate, actuators)
+        # the CMGs' delivered torque already holds -w x H_c, as their demand did: the difference is
+        # what the steering gave up (HY-3)
+        shortfall = (torque - fine) - cmgs["torque_delivered"] if self.take_shortfall else np.zeros(3)
+        wheels = self.wheels.allocate(t, demand | {"torque": fine + shortfall}, estimate, actuators)
         size = float(np.linalg.norm(torque))
         self.min_wheel_scale = min(self.min_wheel_scale, float(wheels["scale"][0]))
         return cmgs | {"wheel_torques": wheels["wheel_torques"],
@@ -120,4 +131,5 @@ class HybridSplit:
                        "momentum": cmgs["momentum"] + wheels["momentum"],
                        "held_momentum": cmgs["held_momentum"] + wheels["momentum"],
                        "wheel_scale": wheels["scale"],
-                       "wheel_share": np.array([float(np.linalg.norm(fine)) / size if size else 0.0])}
+                       "wheel_share": np.array([float(np.linalg.norm(fine)) / size if size else 0.0]),
+                       "shortfall": shortfall}
