@@ -4,6 +4,7 @@ allocator hybrid_split; docs/theory/reaction-wheels.md, "Hybrid bus")."""
 from __future__ import annotations
 
 import copy
+import json
 
 import numpy as np
 import pytest
@@ -128,6 +129,18 @@ def test_bad_hybrid_buses_are_refused_before_the_run(override, field, words, tmp
     err = capsys.readouterr().err.strip()
     assert code == 2 and len(err.splitlines()) == 1 and err.startswith(f"error: {field}:") and words in err, err
     assert not out.exists()
+
+
+def test_the_envelope_of_a_hybrid_bus_is_its_clusters(capsys, tmp_path):
+    """`testbed envelope` of hybrid_slew: its CMG pyramid's (h = 25 N m s, b = 54.74 deg), the wheels apart:
+    S(z) = 4 h sin b and S(x) = 2 h (1 + cos b), the support sum over the four gimbal axes (exact: 1e-12)."""
+    out = tmp_path / "e.rrd"
+    assert main(["envelope", "hybrid_slew", "--points", "300", "--json", "--out", str(out)]) == 0
+    found = json.loads(capsys.readouterr().out)
+    b, h = np.arccos(1.0 / np.sqrt(3.0)), 25.0
+    assert found["units"] == 4
+    assert found["extent_nms"]["z"] == pytest.approx(4 * h * np.sin(b), rel=1e-12)
+    assert found["extent_nms"]["x"] == pytest.approx(2 * h * (1 + np.cos(b)), rel=1e-12)
 
 
 def test_hybrid_split_needs_wheels_on_the_bus(tmp_path, capsys):
