@@ -116,7 +116,7 @@ def test_the_wheels_share_is_the_closed_form():
     ("pipeline.allocator.steering=magic", "pipeline.allocator.steering", "unknown steering law"),
     ("pipeline.allocator={type: hybrid_split, beta_rate_max_deg_s: 10, wheel_allocator: wheel_minimax, "
      "null_space_gain_per_s: 0.1}", "pipeline.allocator.wheel_allocator", "null-space"),
-    ("pipeline.allocator={type: wheel_pinv}", "pipeline.allocator.type", "reaction wheels"),
+    ("pipeline.allocator={type: wheel_pinv}", "pipeline.allocator.type", "hybrid_split"),
     ("pipeline.allocator={type: minimax, beta_rate_max_deg_s: 10}", "pipeline.allocator.type", "hybrid_split"),
     ("model.wheels.wheel_speeds_rpm=[1, 2]", "model.wheels.wheel_speeds_rpm", "4 wheels"),
     ("model.wheels.array=custom", "model.wheels.wheels", "1 to 8"),
