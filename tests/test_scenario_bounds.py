@@ -70,6 +70,16 @@ PINNED = {
         "max_omega_error_rad_s": {"max": 2.0e-5},
         "momentum_drift_rel": {"max": 1.0e-8},
     },
+    "hybrid_slew": {
+        "momentum_drift_rel": {"max": 1e-9},
+        "max_omega_error_rad_s": {"max": 1e-8},
+        "final_attitude_error_deg": {"max": 0.01},
+        "peak_wheel_torque_fraction": {"max": 1},
+        "min_wheel_scale": {"min": 1},
+        "torque_error_rel": {"max": 1e-9},
+        "rate_limit_violations": {"max": 0},
+        "min_scale": {"min": 1},
+    },
     "lebedev_detumble_ideal": {
         "residual_rate_final_deg_s": {"max": 0.1001},
         "spin_error_final_deg_s": {"max": 1.0e-4},

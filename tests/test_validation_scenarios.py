@@ -16,6 +16,7 @@ REQUIRED = {
     "gyrostat_free": {"max_omega_error_rad_s": 1e-8},
     "cmg_open_loop": {"momentum_drift_rel": 1e-9, "gimbal_rate_error_rel": 0.01, "max_omega_error_rad_s": 1e-6},
     "reaction_wheel_slew": {"momentum_drift_rel": 1e-10, "final_pointing_error_deg": 3.4e-4},
+    "hybrid_slew": {"momentum_drift_rel": 1e-9, "max_omega_error_rad_s": 1e-8},
 }
 
 

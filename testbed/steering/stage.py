@@ -139,7 +139,8 @@ class SteeringAllocator:
     def __init__(self, params: SteeringParams, ctx):
         if not hasattr(ctx.description, "unit_jacobian"):
             raise InputError("pipeline.allocator.type", f"{self.law_name} steering needs a system with a "
-                             "gimbal cluster (its plant describes H(beta) and dH/dbeta)")
+                             "gimbal cluster (its plant describes H(beta) and dH/dbeta); a bus with CMGs and "
+                             "wheels takes the allocator hybrid_split")
         user_options = [name for name in LAW_OPTIONS[self.law_name] if name not in STEP_INPUTS]
         for option in params.options:
             if option not in user_options:

@@ -3,12 +3,15 @@
 - arrays.py   the `array:` block: presets (pyramid, box, roof, three_orthogonal, rhombus) and custom units
 - model.py    `CmgClusterParams` (the `model:` block, with the bus's full inertia tensor) and `build`
 - envelope_command.py  `testbed envelope` for a scenario or an array: the envelope's extents
+- hybrid_plant.py      with `model.wheels`: the hybrid bus, CMGs and reaction wheels (HybridPlant)
+- hybrid_allocator.py  the allocator `hybrid_split`: the law's torque split between wheels and CMGs
 
 The plant, the servos, the faults, the reduced model and the cluster geometry are the CMG
 machinery of testbed/systems/cmg_rhombus, which reads every unit from the compiled model.
 """
 
-from testbed.systems.cmg_cluster import envelope_command  # noqa: F401  (register)
+from testbed.systems.cmg_cluster import envelope_command, hybrid_allocator  # noqa: F401  (register)
+from testbed.systems.cmg_cluster.hybrid_plant import HybridPlant
 from testbed.systems.cmg_cluster.model import CmgClusterParams, build
 from testbed.systems.cmg_rhombus import MAX_DT_OVER_ROTOR_TAU, CmgPlant
 from testbed.systems.cmg_rhombus.faults import check_fault_times
@@ -19,7 +22,8 @@ from testbed.systems.registry import system
 def make_plant(params: CmgClusterParams, sim) -> CmgPlant:
     check_fault_times(params.faults, sim.end_time_s - sim.control_period_s,  # the last tick
                       sim.dt_s / MAX_DT_OVER_ROTOR_TAU, sim.dt_s)
-    return CmgPlant(build(params, sim.dt_s, sim.integrator), params, sim.control_period_s)
+    plant = CmgPlant if params.wheels is None else HybridPlant
+    return plant(build(params, sim.dt_s, sim.integrator), params, sim.control_period_s)
 
 
 __all__ = ["CmgClusterParams", "build", "make_plant"]

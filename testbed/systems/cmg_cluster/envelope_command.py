@@ -27,6 +27,7 @@ from testbed.errors import InputError
 from testbed.recording.output_paths import output_path
 from testbed.systems.cmg_cluster.arrays import MAX_UNITS, MIN_UNITS, PRESETS, ArrayParams
 from testbed.systems.cmg_cluster.model import CmgClusterParams
+from testbed.systems.cmg_cluster.hybrid_plant import HybridBus
 from testbed.systems.cmg_cluster.model import build as build_cluster
 from testbed.systems.cmg_rhombus.cluster import ClusterGeometry
 from testbed.systems.cmg_rhombus.model import CmgRhombusParams, build
@@ -76,6 +77,8 @@ def cluster_of_scenario(name: str) -> ClusterGeometry:
 
     scenario = load_scenario(name)
     geometry = make_plant(scenario).description()
+    if isinstance(geometry, HybridBus):  # the wheels hold no envelope of their own here
+        geometry = geometry.cluster
     if not isinstance(geometry, ClusterGeometry):
         raise InputError("scenario", f"{name}: system {scenario.system} has no CMG cluster")
     return geometry

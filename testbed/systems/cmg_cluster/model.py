@@ -1,7 +1,8 @@
 """The CMG cluster spacecraft (models/cmg_cluster.xml): its parameters and `build`.
 
 `CmgClusterParams` is the scenario's `model:` block: the bus (principal moments and products of
-inertia), the `array:` (arrays.py) and every unit field the rhombus has (CmgUnitsParams).
+inertia), the `array:` (arrays.py), every unit field the rhombus has (CmgUnitsParams) and,
+for a hybrid bus, the reaction wheels' `wheels:` block (the reaction_wheels system's).
 `build` adds the array's units to the bus through MjSpec, laid out and named as in
 models/cmg_rhombus.xml, and applies every field with the rhombus's own `compile_units`.
 """
@@ -16,12 +17,13 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.math.validation import check_principal_inertia
 from testbed.scenario.schema import join, param
-from testbed.scenario.shipped_files import load_spec
+from testbed.scenario.shipped_files import compile_model, load_spec
 from testbed.systems.cmg_cluster.arrays import ArrayLayout, ArrayParams, UnitParams, layout
 from testbed.systems.cmg_rhombus.cluster import unit_names
 from testbed.systems.cmg_rhombus.model import (INITIAL_KEY, CmgUnitsParams, UnitBuild, compile_units,
                                               unit_actuator_names)
 from testbed.systems.free_bus import BUS_BODY, set_bus_inertia_tensor
+from testbed.systems.reaction_wheels.model import WheelsParams, add_wheels
 
 ROTOR_QUAT = [0.70710678, -0.70710678, 0.0, 0.0]  # rotor local z = gimbal local y (the spin axis e_i)
 
@@ -36,6 +38,8 @@ class CmgClusterParams(CmgUnitsParams):
     gimbal_angles_deg: the initial angles, one per unit; None: the array's own (arrays.py).
     rotor_static_imbalance_kg_m, rotor_dynamic_imbalance_kg_m2: one per unit; [] (the default):
         every rotor balanced.
+    wheels: reaction wheels on the same bus, the reaction_wheels system's array block
+        (testbed.systems.reaction_wheels.model.WheelsParams); None: none.
     The other fields are CmgRhombusParams's, for every unit.
     """
 
@@ -46,6 +50,7 @@ class CmgClusterParams(CmgUnitsParams):
     gimbal_angles_deg: list[float] | None = param(None, doc="initial gimbal angles; None: the array's")
     rotor_static_imbalance_kg_m: list[float] = param([], ge=0, doc="Us of each rotor (simple jitter)")
     rotor_dynamic_imbalance_kg_m2: list[float] = param([], ge=0, doc="Ud of each rotor (simple jitter)")
+    wheels: WheelsParams | None = param(None, doc="reaction wheels on the same bus (a hybrid bus; absent: none)")
 
     def units(self) -> ArrayLayout:
         """The array's units (arrays.layout)."""
@@ -76,14 +81,26 @@ class CmgClusterParams(CmgUnitsParams):
 
 def build(params: CmgClusterParams, dt: float, integrator: str = "RK4") -> mujoco.MjModel:
     """Compile models/cmg_cluster.xml with the array's units added and every field of `params`
-    applied through MjSpec."""
+    applied through MjSpec; with `params.wheels`, the reaction_wheels builder's wheels added to
+    the same bus after the units (`add_wheels`), their initial speeds in the keyframe."""
     spec = load_spec("cmg_cluster.xml", dt, integrator)
     set_bus_inertia_tensor(spec, params.inertia_tensor(), params.mass_kg)
     units = params.units()
     add_units(spec, units.count)
     angles = units.gimbal_angles_deg if params.gimbal_angles_deg is None else params.gimbal_angles_deg
-    return compile_units(spec, params, dt, [unit_build(params, position, frame, own) for position, frame, own
-                                            in zip(units.positions, units.frames(), units.own)], angles)
+    model = compile_units(spec, params, dt, [unit_build(params, position, frame, own) for position, frame, own
+                                             in zip(units.positions, units.frames(), units.own)], angles)
+    if params.wheels is None:
+        return model
+    # the units are placed and sized in the spec now: the wheels' joints and motors come after
+    # theirs, so the keyframe grows at its end
+    add_wheels(spec, spec.body(BUS_BODY), params.wheels)
+    key = spec.key(INITIAL_KEY)
+    count = len(params.wheels.axes())
+    key.qpos = list(key.qpos) + [0.0] * count
+    key.qvel = list(key.qvel) + params.wheels.initial_speeds().tolist()
+    key.ctrl = list(key.ctrl) + [0.0] * count
+    return compile_model(spec)
 
 
 def unit_build(params: CmgClusterParams, position, frame, own: UnitParams | None) -> UnitBuild:

@@ -17,13 +17,17 @@ momentum K_i g_i beta'_i besides the rotor spin momentum.
 `textbook_cmg_omega` integrates that textbook form (constant I, H = sum h a_i(beta)) for
 comparison.
 
+On a hybrid bus H_int also holds the wheels' sum_j Jw_j Omega_j a_j (their locked inertia is
+constant: each is axisymmetric about its axis, its CoM on it), from the recorded wheel speeds.
+
 Mass properties come from the compiled model's arrays only (body_mass, body_ipos,
 body_inertia, body_iquat, body_pos, body_quat, jnt_axis, jnt_pos); the cluster axes from
 ClusterGeometry, which reads the same arrays.
 
 Interpolation of the sampled histories (document of record):
 - beta: piecewise cubic Hermite through (beta_k, beta'_k): C1, and consistent with beta';
-- beta' and Omega: not-a-knot cubic splines (C2) through the samples.
+- beta' and Omega: not-a-knot cubic splines (C2) through the samples;
+- wheel speeds: piecewise linear (their motor torque is held over each control period).
 With samples every physics step (1-2 ms) the interpolation error is far below 1e-9 rad/s.
 """
 
@@ -61,12 +65,18 @@ class CmgMassModel:
     """
 
     def __init__(self, constant_inertia, cmg_inertia, gimbal_axes, spin_axes_zero,
-                 spin_inertia):
+                 spin_inertia, wheel_axes=np.zeros((0, 3)), wheel_spin_inertia=np.zeros(0)):
         self.constant_inertia = np.asarray(constant_inertia, dtype=float)
         self.cmg_inertia = np.asarray(cmg_inertia, dtype=float)  # (4, 3, 3)
         self.gimbal_axes = np.asarray(gimbal_axes, dtype=float)
         self.spin_axes_zero = np.asarray(spin_axes_zero, dtype=float)
         self.spin_inertia = np.asarray(spin_inertia, dtype=float)
+        self.wheel_axes = np.asarray(wheel_axes, dtype=float)  # (m, 3): wheels hinged to the bus (a hybrid bus)
+        self.wheel_spin_inertia = np.asarray(wheel_spin_inertia, dtype=float)  # (m,)
+
+    @property
+    def has_wheels(self) -> bool:
+        return len(self.wheel_axes) > 0
 
     @classmethod
     def from_model(cls, model):
@@ -102,14 +112,37 @@ class CmgMassModel:
                 raise ValueError(f"{rotor_name} CoM is off its spin axis")
             _check_axisymmetric(rotor_name, rotor_inertia, geometry.spin_axes_zero[i])
             cmg_inertia.append(cmg)
+        wheel_axes, wheel_spin = [], []
+        gimbal_ids = {model.body(name).id for name in unit_names(unit_count(model))[0]}
+        for body_id in range(model.nbody):
+            if model.body_parentid[body_id] != bus_id or body_id in gimbal_ids or body_id == bus_id:
+                continue
+            # any other body hinged to the bus is a wheel: an axisymmetric rotor whose CoM is on
+            # its axis, so its locked inertia is constant and its momentum Js Omega a
+            wheel = model.body(body_id)
+            if model.body_jntnum[body_id] != 1 or model.jnt_type[model.body_jntadr[body_id]] != mujoco.mjtJoint.mjJNT_HINGE:
+                raise ValueError(f"{wheel.name} is on the bus but is neither a gimbal nor a wheel on one hinge")
+            rot = quat_to_matrix(wheel.quat)
+            axis = rot @ model.jnt_axis[model.body_jntadr[body_id]]
+            com = wheel.pos + rot @ wheel.ipos
+            principal = rot @ quat_to_matrix(wheel.iquat)
+            inertia = principal @ np.diag(wheel.inertia) @ principal.T
+            if _distance_to_line(com, wheel.pos + rot @ model.jnt_pos[model.body_jntadr[body_id]], axis) > 1e-9:
+                raise ValueError(f"{wheel.name} CoM is off its spin axis")
+            _check_axisymmetric(wheel.name, inertia, axis)
+            inertias.append(inertia)
+            masses.append(wheel.mass[0])
+            coms.append(com)
+            wheel_axes.append(axis)
+            wheel_spin.append(axis @ inertia @ axis)
         masses, coms = np.array(masses, dtype=float), np.array(coms)
         system_com = masses @ coms / masses.sum()
-        constant = inertias[0].copy()
+        constant = sum(inertias)  # the bus's and the wheels' own: every CMG's turns with its gimbal
         for mass, com in zip(masses, coms):
             r = com - system_com
             constant += mass * (r @ r * np.eye(3) - np.outer(r, r))
         return cls(constant, cmg_inertia, geometry.gimbal_axes, geometry.spin_axes_zero,
-                   geometry.spin_inertia)
+                   geometry.spin_inertia, np.reshape(wheel_axes, (-1, 3)), np.array(wheel_spin))
 
     def rotations(self, beta):
         """R_i: rotation by beta_i about g_i, (4, 3, 3)."""
@@ -120,14 +153,18 @@ class CmgMassModel:
         rot = self.rotations(beta) if rotations is None else rotations
         return self.constant_inertia + np.einsum("iab,ibc,idc->ad", rot, self.cmg_inertia, rot)
 
-    def internal_momentum(self, beta, beta_rate, rotor_rate, rotations=None):
-        """Momentum of gimbals + rotors relative to the bus, bus axes [N m s]:
-        sum_i R_i K_i R_i^T g_i beta'_i + Js_i Omega_i R_i e_i (g_i is fixed by R_i)."""
+    def internal_momentum(self, beta, beta_rate, rotor_rate, rotations=None, wheel_rate=None):
+        """Momentum of gimbals + rotors (+ wheels) relative to the bus, bus axes [N m s]:
+        sum_i R_i K_i R_i^T g_i beta'_i + Js_i Omega_i R_i e_i (g_i is fixed by R_i), plus
+        sum_j Jw_j Omega_j a_j of the wheels at speeds `wheel_rate` [rad/s] when the bus has them."""
         rot = self.rotations(beta) if rotations is None else rotations
         k_world = np.einsum("iab,ibc,idc->iad", rot, self.cmg_inertia, rot)
         gimbal_part = np.einsum("iab,ib,i->a", k_world, self.gimbal_axes, beta_rate)
         spin_axes = np.einsum("iab,ib->ia", rot, self.spin_axes_zero)
-        return gimbal_part + (self.spin_inertia * rotor_rate) @ spin_axes
+        momentum = gimbal_part + (self.spin_inertia * rotor_rate) @ spin_axes
+        if wheel_rate is not None:
+            momentum = momentum + (self.wheel_spin_inertia * wheel_rate) @ self.wheel_axes
+        return momentum
 
 
 def _check_axisymmetric(name, inertia, axis):
@@ -141,17 +178,24 @@ def _check_axisymmetric(name, inertia, axis):
 
 
 class GimbalHistory:
-    """Interpolated beta(t), beta'(t), Omega(t) from samples (see module docstring)."""
+    """Interpolated beta(t), beta'(t), Omega(t) and the wheel speeds from samples (see module docstring)."""
 
-    def __init__(self, t_samples, beta, beta_rate, rotor_rate):
+    def __init__(self, t_samples, beta, beta_rate, rotor_rate, wheel_rate=None):
         t = np.asarray(t_samples, dtype=float)
-        from scipy.interpolate import CubicHermiteSpline, CubicSpline  # on use: at the top it would cost every command start-up time
+        from scipy.interpolate import CubicHermiteSpline, CubicSpline, make_interp_spline  # on use: at the top it would cost every command start-up time
         self.beta = CubicHermiteSpline(t, np.asarray(beta, float), np.asarray(beta_rate, float))
         self.beta_rate = CubicSpline(t, np.asarray(beta_rate, dtype=float))
         self.rotor_rate = CubicSpline(t, np.asarray(rotor_rate, dtype=float))
+        # piecewise linear: a wheel's motor torque is held over each control period, so its
+        # absolute momentum is linear between the ticks and a spline through the kinks would ring
+        self.wheel_rate = None if wheel_rate is None else make_interp_spline(t, np.asarray(wheel_rate, float), k=1)
 
     def __call__(self, t):
         return self.beta(t), self.beta_rate(t), self.rotor_rate(t)
+
+    def wheels(self, t):
+        """The wheel speeds at t [rad/s], None without wheels."""
+        return None if self.wheel_rate is None else self.wheel_rate(t)
 
 
 def _check_samples(t_samples, beta, beta_rate, rotor_rate):
@@ -174,21 +218,22 @@ def reduced_cmg_omega(mass_model, t_samples, beta, beta_rate, rotor_rate, omega0
 
 
 def reduced_cmg_segment(mass_model, t_samples, beta, beta_rate, rotor_rate, t_eval, omega0=None,
-                        momentum0=None, t_start=None, rtol=1e-12, atol=1e-14):
+                        momentum0=None, t_start=None, rtol=1e-12, atol=1e-14, wheel_rate=None):
     """(w(t_eval) (N, 3) [rad/s], L_b(t_eval[-1]) [N m s]): the reduced model (module docstring)
     integrated over [t_start, t_eval[-1]] (t_start: t_eval[0] unless given) from the bus-frame
     momentum `momentum0` at t_start, or from the body rate `omega0` there. The histories cover
-    t_samples, which contains t_eval."""
+    t_samples, which contains t_eval; `wheel_rate` (len(t_samples), m) the speeds of a hybrid
+    bus's wheels, whose momentum joins H_int."""
     if isinstance(mass_model, mujoco.MjModel):
         mass_model = CmgMassModel.from_model(mass_model)
     _check_samples(t_samples, beta, beta_rate, rotor_rate)
-    history = GimbalHistory(t_samples, beta, beta_rate, rotor_rate)
+    history = GimbalHistory(t_samples, beta, beta_rate, rotor_rate, wheel_rate)
 
     def body_rate(t, momentum_body):
         b, b_rate, rotor = history(t)
         rot = mass_model.rotations(b)
         inertia = mass_model.system_inertia(b, rot)
-        internal = mass_model.internal_momentum(b, b_rate, rotor, rot)
+        internal = mass_model.internal_momentum(b, b_rate, rotor, rot, history.wheels(t))
         return np.linalg.solve(inertia, momentum_body - internal)
 
     def rhs(t, momentum_body):
@@ -199,7 +244,7 @@ def reduced_cmg_segment(mass_model, t_samples, beta, beta_rate, rotor_rate, t_ev
     if momentum0 is None:
         b, b_rate, rotor = history(t0)
         momentum0 = (mass_model.system_inertia(b) @ np.asarray(omega0, dtype=float)
-                     + mass_model.internal_momentum(b, b_rate, rotor))
+                     + mass_model.internal_momentum(b, b_rate, rotor, wheel_rate=history.wheels(t0)))
     from scipy.integrate import solve_ivp  # on use: at the top it would cost every command start-up time
     sol = solve_ivp(rhs, (t0, float(t_eval[-1])), momentum0, method="DOP853", t_eval=t_eval,
                     rtol=rtol, atol=atol)
@@ -254,11 +299,13 @@ def _reduced_cmg(plant, params):
     gimbal and rotor histories (`reduced_cmg_omega`)."""
     mass_model, omega0 = CmgMassModel.from_model(plant.model), plant.omega()
     inputs = ("truth/gimbal_angle", "truth/gimbal_rate", "truth/rotor_rate")
+    wheels = ("truth/wheel_rate",) if mass_model.has_wheels else ()
 
     def segment(times, histories, lo, hi, momentum):
         # from w(0) = omega0 in the first window, then from the momentum the last one ended with
         return reduced_cmg_segment(mass_model, times, *(histories[key] for key in inputs), times[lo:hi + 1],
                                    omega0=omega0 if momentum is None else None, momentum0=momentum,
-                                   rtol=params.rtol, atol=1e-14)
+                                   rtol=params.rtol, atol=1e-14,
+                                   wheel_rate=histories[wheels[0]] if wheels else None)
 
-    return WindowedReference(segment, inputs, state=None)
+    return WindowedReference(segment, inputs + wheels, state=None)

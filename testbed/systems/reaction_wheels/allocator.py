@@ -90,7 +90,8 @@ class WheelAllocator(ABC):
     def __init__(self, params, ctx):
         if not isinstance(ctx.description, WheelArray):
             raise InputError(f"{PATH}.type", f"{self.type_name} needs a system with reaction wheels "
-                                             f"(model.system reaction_wheels), not {ctx.system}")
+                                             f"(model.system reaction_wheels), not {ctx.system}; a bus with "
+                                             "CMGs and wheels takes the allocator hybrid_split")
         self.array = ctx.description
         self.distribution = self.array.distribution
         self.inverse = minimum_norm_inverse(self.array, self.type_name)

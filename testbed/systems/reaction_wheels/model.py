@@ -64,14 +64,10 @@ class CustomWheel:
 
 
 @dataclass(kw_only=True)
-class ReactionWheelsParams:
-    """A rigid bus with a full inertia tensor carrying 1 to 8 reaction wheels (docs/theory/reaction-wheels.md)."""
+class WheelsParams:
+    """An array of 1 to 8 reaction wheels on a bus: the `model:` block of reaction_wheels, and
+    the `model.wheels:` block of a CMG cluster with wheels (a hybrid bus)."""
 
-    system: str = "reaction_wheels"
-    inertia_tensor_kg_m2: list[list[float]] = param([[350.0, 0.0, 0.0], [0.0, 420.0, 0.0], [0.0, 0.0, 300.0]],
-                                                    length=3, doc="the bus's inertia tensor about its CoM, bus axes, "
-                                                    "products of inertia off the diagonal (I_xy = -sum m x y)")
-    mass_kg: float = param(500.0, gt=0, doc="the bus alone (the wheels add theirs)")
     array: Literal["three_orthogonal", "pyramid", "nasa_standard", "custom"] = "pyramid"
     skew_deg: float = param(ISOTROPIC_SKEW_DEG, gt=0, lt=90, doc="pyramid: each spin axis's angle from the bus z axis")
     mount_radius_m: float = param(0.3, ge=0, le=100, doc="a preset wheel's centre lies this far along its spin axis")
@@ -80,8 +76,6 @@ class ReactionWheelsParams:
     wheel_speeds_rpm: list[float] | None = param(None, doc="initial speeds relative to the bus, one per wheel (default 0)")
 
     def validate(self, path: str) -> None:
-        check_inertia_tensor(self.inertia_tensor_kg_m2, join(path, "inertia_tensor_kg_m2"))
-        check_in_range(join(path, "mass_kg"), self.mass_kg, MASS_RANGE_KG, "kg")
         if self.array == "custom":
             if not 1 <= len(self.wheels) <= MAX_WHEELS:
                 raise InputError(join(path, "wheels"), f"array custom needs 1 to {MAX_WHEELS} wheels, got {len(self.wheels)}")
@@ -136,6 +130,22 @@ class ReactionWheelsParams:
                           coulomb=np.array([u.coulomb_friction_nm for u in units]))
 
 
+@dataclass(kw_only=True)
+class ReactionWheelsParams(WheelsParams):
+    """A rigid bus with a full inertia tensor carrying 1 to 8 reaction wheels (docs/theory/reaction-wheels.md)."""
+
+    system: str = "reaction_wheels"
+    inertia_tensor_kg_m2: list[list[float]] = param([[350.0, 0.0, 0.0], [0.0, 420.0, 0.0], [0.0, 0.0, 300.0]],
+                                                    length=3, doc="the bus's inertia tensor about its CoM, bus axes, "
+                                                    "products of inertia off the diagonal (I_xy = -sum m x y)")
+    mass_kg: float = param(500.0, gt=0, doc="the bus alone (the wheels add theirs)")
+
+    def validate(self, path: str) -> None:
+        check_inertia_tensor(self.inertia_tensor_kg_m2, join(path, "inertia_tensor_kg_m2"))
+        check_in_range(join(path, "mass_kg"), self.mass_kg, MASS_RANGE_KG, "kg")
+        super().validate(path)
+
+
 def full_inertia(tensor) -> list[float]:
     """MuJoCo's `fullinertia` order of a symmetric tensor: (Ixx, Iyy, Izz, Ixy, Ixz, Iyz)."""
     m = np.asarray(tensor, dtype=float)
@@ -157,13 +167,20 @@ def motor_names(count: int) -> list[str]:
 
 
 def build(params: ReactionWheelsParams, dt: float, integrator: str) -> mujoco.MjModel:
-    """Compile models/reaction_wheels.xml with the bus's mass and inertia tensor and one body,
-    hinge (bearing friction: damping and frictionloss) and torque motor (ctrlrange the torque
-    limit) per wheel, all through MjSpec."""
+    """Compile models/reaction_wheels.xml with the bus's mass and inertia tensor and the wheels
+    (`add_wheels`), all through MjSpec."""
     spec = load_spec("reaction_wheels.xml", dt, integrator)
     bus = spec.body("bus")
     bus.mass = params.mass_kg
     bus.fullinertia = full_inertia(check_inertia_tensor(params.inertia_tensor_kg_m2, "model.inertia_tensor_kg_m2"))
+    add_wheels(spec, bus, params)
+    return compile_model(spec)
+
+
+def add_wheels(spec: mujoco.MjSpec, bus, params: WheelsParams) -> None:
+    """Add to `bus` (an MjSpec body) one body, hinge (bearing friction: damping and frictionloss)
+    and torque motor (ctrlrange the torque limit) per wheel of `params`, after everything the
+    spec already holds: the wheels' joints and motors come last in the compiled model."""
     axes, units, positions = params.axes(), params.units(), params.positions()
     if any(unit.coulomb_friction_nm for unit in units):
         # Coulomb friction is a frictionloss constraint: at MuJoCo's default tolerance (1e-8) the Newton
@@ -185,4 +202,3 @@ def build(params: ReactionWheelsParams, dt: float, integrator: str) -> mujoco.Mj
         spec.add_actuator(name=motor, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT,
                           gear=[1, 0, 0, 0, 0, 0], ctrllimited=True,
                           ctrlrange=[-unit.max_torque_nm, unit.max_torque_nm])
-    return compile_model(spec)

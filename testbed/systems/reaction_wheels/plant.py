@@ -9,69 +9,92 @@ import numpy as np
 from testbed.plant import Plant, float_writer
 from testbed.recording.scene import moving_parts
 from testbed.systems.free_bus import FreeBus
-from testbed.systems.reaction_wheels.model import ReactionWheelsParams, motor_names, wheel_names
+from testbed.systems.reaction_wheels.model import ReactionWheelsParams, WheelsParams, motor_names, wheel_names
+
+
+class WheelDrive:
+    """The wheels of a compiled model (`add_wheels`) on `data`: their hinges' speeds and their
+    motors, as views of MuJoCo's arrays (which never move: a copy costs a quarter of slicing anew)."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, params: WheelsParams):
+        self.array = params.wheel_array()
+        count = self.array.count
+        dofs = [int(model.joint(name).dofadr[0]) for name in wheel_names(count)]
+        motors = [int(model.actuator(name).id) for name in motor_names(count)]
+        if dofs != list(range(dofs[0], dofs[0] + count)) or motors != list(range(motors[0], motors[0] + count)):
+            raise RuntimeError("the wheels' hinges and motors are not contiguous in the compiled model")
+        self.rates = data.qvel[dofs[0]:dofs[0] + count]  # [rad/s] relative to the bus
+        self.torques = data.actuator_force[motors[0]:motors[0] + count]  # [N m] the motors applied
+        self.write_torques = float_writer(data.ctrl[motors[0]:motors[0] + count])
+        self.initial_speeds = params.initial_speeds()
+
+    def start(self) -> None:
+        """Set the wheels to their initial speeds (relative to the bus)."""
+        self.rates[:] = self.initial_speeds
+
+    def truth(self) -> dict[str, np.ndarray]:
+        """`wheel_rate` (n,) [rad/s, relative to the bus] and `wheel_torque` (n,) [N m] the motors applied."""
+        return {"wheel_rate": self.rates.copy(), "wheel_torque": self.torques.copy()}
+
+    def derived_signals(self, recorder) -> dict[str, np.ndarray]:
+        """`wheel_momentum` (n,) h_i = Js_i Omega_i and `wheel_momentum_body` (3,) A h [N m s]."""
+        rates = recorder["truth/wheel_rate"]
+        return {"truth/wheel_momentum": self.array.wheel_momentum(rates),
+                "truth/wheel_momentum_body": self.array.momentum(rates)}
+
+    def stored_momentum(self) -> float:
+        """sum_i Js_i |Omega_i| [N m s]: the momentum the wheels hold, whatever its direction."""
+        return float(np.sum(np.abs(self.array.wheel_momentum(self.rates))))
+
+    def speeds_rpm(self) -> list[float]:
+        return (self.rates * 60.0 / (2.0 * np.pi)).tolist()
 
 
 class ReactionWheelPlant(Plant):
     """A free bus with n wheels: command `wheel_torques` (n,) [N m], the motor torque on each wheel
     about its spin axis (the bus takes its reaction); MuJoCo clamps it to the motor's limit
-    (ctrlrange). Truth adds `wheel_rate` (n,) [rad/s, relative to the bus] and the wheel torques
-    the motors applied, `wheel_torque` (n,) [N m]; derived, the wheels' momentum `wheel_momentum`
-    (n,) h_i = Js_i Omega_i and its sum in bus axes `wheel_momentum_body` (3,) [N m s]."""
+    (ctrlrange). Truth adds the WheelDrive's `wheel_rate` and `wheel_torque`; derived, its
+    `wheel_momentum` and `wheel_momentum_body`."""
 
     def __init__(self, model: mujoco.MjModel, params: ReactionWheelsParams):
         super().__init__(FreeBus(model))
-        self.array = params.wheel_array()
-        count = self.array.count
-        self.actuators = {"body_torque": (3,), "wheel_torques": (count,)}
-        dofs = [int(model.joint(name).dofadr[0]) for name in wheel_names(count)]
-        motors = [int(model.actuator(name).id) for name in motor_names(count)]
-        if dofs != list(range(dofs[0], dofs[0] + count)) or motors != list(range(motors[0], motors[0] + count)):
-            raise RuntimeError("the wheels' hinges and motors are not contiguous in the compiled model")
-        # views of MuJoCo's arrays (which never move): a copy costs a quarter of slicing anew
-        self._rates = self.data.qvel[dofs[0]:dofs[0] + count]
-        self._torques = self.data.actuator_force[motors[0]:motors[0] + count]
-        self._write_torques = float_writer(self.data.ctrl[motors[0]:motors[0] + count])
-        self.initial_speeds = params.initial_speeds()
+        self.wheels = WheelDrive(model, self.data, params)
+        self.array = self.wheels.array
+        self.actuators = {"body_torque": (3,), "wheel_torques": (self.array.count,)}
 
     def initialise(self, initial) -> None:
-        self._rates[:] = self.initial_speeds
+        self.wheels.start()
         super().initialise(initial)
 
     def wheel_rates(self) -> np.ndarray:
         """Wheel speeds relative to the bus [rad/s], as the tachometers read them."""
-        return self._rates.copy()
+        return self.wheels.rates.copy()
 
     def truth(self) -> dict[str, np.ndarray]:
-        signals = super().truth()
-        signals.update(wheel_rate=self._rates.copy(), wheel_torque=self._torques.copy())
-        return signals
+        return super().truth() | self.wheels.truth()
 
     def derived_signals(self, recorder) -> dict[str, np.ndarray]:
-        rates = recorder["truth/wheel_rate"]
-        return {"truth/wheel_momentum": self.array.wheel_momentum(rates),
-                "truth/wheel_momentum_body": self.array.momentum(rates)}
+        return self.wheels.derived_signals(recorder)
 
     def actuator_state(self) -> dict[str, np.ndarray]:
-        return {"wheel_rate": self._rates.copy()}
+        return {"wheel_rate": self.wheels.rates.copy()}
 
     def apply(self, command: dict[str, np.ndarray]) -> None:
         if "body_torque" in command:
             super().apply(command)
         torques = command.get("wheel_torques")
         if torques is not None:
-            self._write_torques(*torques)
+            self.wheels.write_torques(*torques)
 
     def internal_momentum_body(self) -> np.ndarray:
         """H = sum_i Js_i Omega_i a_i: the wheels' momentum relative to the bus, bus axes [N m s]."""
-        return self.array.momentum(self._rates)
+        return self.array.momentum(self.wheels.rates)
 
     def momentum_scale(self) -> float:
         """max(|L|, sum_i Js_i |Omega_i|, min_i Js_i Omega_max,i): the stored momentum keeps the
         scale meaningful for wheels whose momenta cancel, and one wheel's momentum at its speed
         limit (the scale of what the array exchanges with the bus) for wheels that start at rest."""
-        stored = float(np.sum(np.abs(self.array.wheel_momentum(self._rates))))
-        return max(super().momentum_scale(), stored, float(np.min(self.array.momentum_max)))
+        return max(super().momentum_scale(), self.wheels.stored_momentum(), float(np.min(self.array.momentum_max)))
 
     def description(self):
         return self.array
@@ -87,7 +110,7 @@ class ReactionWheelPlant(Plant):
         values = super().applied()
         values.pop("model.inertia_kg_m2", None)
         return values | {"model.inertia_tensor_kg_m2": tensor.tolist(),
-                         "model.wheel_speeds_rpm": (self._rates * 60.0 / (2.0 * np.pi)).tolist()}
+                         "model.wheel_speeds_rpm": self.wheels.speeds_rpm()}
 
     def scene(self) -> dict:
         """The base scene plus the wheels (drawn at their mount, not turning: a balanced wheel's
