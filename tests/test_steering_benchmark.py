@@ -203,3 +203,46 @@ def test_the_global_plan_flies_a_slew_the_local_search_refused(bench):
     drift = np.linalg.norm(rhombus_momentum(flown["angles"], alpha) - bench.wanted_momentum(case, times), axis=-1)
     assert drift.max() < 4 * (np.radians(bench.RATE_MAX_DEG_S) * bench.DT_S) ** 2 / 2
     assert min(reference_measure(beta, bench) for beta in flown["angles"]) >= 0.05
+
+
+def pyramid_momentum(beta, skew):
+    """Wie's pyramid, H / h = (-cb s1 - c2 + cb s3 + c4, c1 - cb s2 - c3 + cb s4, sb (s1 + s2 + s3 + s4))."""
+    s, c = np.sin(beta), np.cos(beta)
+    cb, sb = np.cos(skew), np.sin(skew)
+    return np.stack([-cb * s[..., 0] - c[..., 1] + cb * s[..., 2] + c[..., 3],
+                     c[..., 0] - cb * s[..., 1] - c[..., 2] + cb * s[..., 3], sb * s.sum(axis=-1)], axis=-1)
+
+
+def pyramid_measure(beta, skew):
+    """sqrt(det(J J^T)) with J the derivative of pyramid_momentum, by hand."""
+    s, c = np.sin(beta), np.cos(beta)
+    cb, sb = np.cos(skew), np.sin(skew)
+    J = np.stack([np.stack([-cb * c[..., 0], -s[..., 0], sb * c[..., 0]], -1),
+                  np.stack([s[..., 1], -cb * c[..., 1], sb * c[..., 1]], -1),
+                  np.stack([cb * c[..., 2], s[..., 2], sb * c[..., 2]], -1),
+                  np.stack([-s[..., 3], cb * c[..., 3], sb * c[..., 3]], -1)], axis=-1)
+    return np.sqrt(np.linalg.det(J @ np.swapaxes(J, -1, -2)))
+
+
+def test_a_fast_slew_far_inside_the_pyramids_envelope_is_planned(bench):
+    # A 20 s slew (not shipped, half the benchmark's 40 s) at 0.53 of the pyramid's support along d, a fifth
+    # of the torque the rate limit allows (|s'| = 4 r / T = 0.34 h/s against 30 deg/s x S(d) = 1.7 h/s). With 60
+    # levels a link reached 0.9 x 30 deg/s x 83 ms = 2.2 deg, less than the 3 deg between samples: no null motion
+    # between levels, and the plan was refused. level_count takes 32 levels here (60 for the benchmark's
+    # 40 s slews) and the plan is checked with Wie's pyramid formulas, not the project's: on the line
+    # H = s(t) d, every rate within 30 deg/s, sqrt det >= 0.05.
+    from testbed.steering.planned_path import level_count, plan_gimbal_path
+    geo, skew = bench.geometry("pyramid"), np.arccos(1 / np.sqrt(3))
+    d = np.array([-0.3677550736025256, 0.3198575830161004, -0.8731823019431276])
+    times, rate = np.linspace(0.0, 20.0, 201), np.radians(30.0)
+    s = 1.676 * 4 * (times / 20) * (1 - times / 20)
+    assert level_count(times, s, rate, 60, np.radians(3.0), 0.9) == 32
+    slow = np.linspace(0.0, 40.0, 401)
+    assert level_count(slow, 1.676 * 4 * (slow / 40) * (1 - slow / 40), rate, 60, np.radians(3.0), 0.9) == 60
+    start = np.radians(bench.start_sets(geo)[1])
+    assert np.abs(pyramid_momentum(start, skew)).max() < 1e-12
+    plan = plan_gimbal_path(geo.momentum, geo.unit_jacobian, start, d, times, s, rate, reconfiguration_travel=rate * 5.0)
+    assert plan is not None
+    assert np.abs(pyramid_momentum(plan.angles, skew) - s[:, None] * d).max() < 1e-8
+    assert (np.abs(np.diff(plan.angles, axis=0)).max(axis=-1) / np.diff(times)).max() <= rate
+    assert pyramid_measure(plan.angles, skew).min() >= 0.05
