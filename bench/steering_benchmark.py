@@ -24,7 +24,7 @@ the largest bin (and all below) where it reaches 95 %. A law that cannot steer t
 only) is refused, not run. It prints the table and writes the exact shares as bar charts (`--rrd`).
 
     .venv/bin/python bench/steering_benchmark.py [--array rhombus] [--slews 200] [--seed 29] [--sweep 0]
-                                                 [--laws pinv,...] [--markdown]
+                                                 [--laws pinv,...] [--markdown] [--duration-s 40] [--rate-deg-s 30]
                                                  [--csv runs/steering_benchmark.csv] [--rrd runs/steering_benchmark.rrd]
 """
 
@@ -142,7 +142,7 @@ def planned_path(case: dict, geo: ClusterGeometry, step_s: float = 0.1):
                             rate_max, reconfiguration_travel=rate_max * PRESLEW_S)
 
 
-def fly(law: str, case: dict, geo: ClusterGeometry | None = None, duration_s: float = DURATION_S,
+def fly(law: str, case: dict, geo: ClusterGeometry | None = None, duration_s: float | None = None,
         dt: float = DT_S, history: bool = False) -> dict:
     """One law on one case (module doc): its figures, and with `history` the flown angles at every step
     ("angles", (steps + 1, n)). `planned` plans the path before the slew (planned_path) and tracks it
@@ -167,7 +167,7 @@ def fly(law: str, case: dict, geo: ClusterGeometry | None = None, duration_s: fl
         fixed["preferred_gimbal_angles"] = start
     if "preferred_jacobian" in options:
         fixed["preferred_jacobian"] = start_jacobian
-    steps = int(round(duration_s / dt))
+    steps = int(round((DURATION_S if duration_s is None else duration_s) / dt))
     times = dt * np.arange(steps + 1)
     wanted = wanted_momentum(case, times)
     program_rate = np.abs(np.diff(wanted, axis=0) / dt).max() if steps else 0.0
@@ -291,6 +291,7 @@ def write_plot(path: Path, rows: list[dict], laws) -> Path:
 
 
 def main() -> None:
+    global DURATION_S, RATE_MAX_DEG_S  # the script's constants, as every function reads them
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--array", default="rhombus", choices=list(ARRAYS), help="the CMG array")
     parser.add_argument("--slews", type=int, default=200)
@@ -298,6 +299,8 @@ def main() -> None:
     parser.add_argument("--sweep", type=int, default=0, help="Fibonacci directions of the Valk-style grid")
     parser.add_argument("--laws", default=",".join(LAWS))
     parser.add_argument("--markdown", action="store_true", help="print the docs' table (shares per bin) too")
+    parser.add_argument("--duration-s", type=float, default=DURATION_S, help="the slews' duration T [s]")
+    parser.add_argument("--rate-deg-s", type=float, default=RATE_MAX_DEG_S, help="the gimbal rate limit [deg/s]")
     parser.add_argument("--csv", type=Path, default=None)
     parser.add_argument("--rrd", type=Path, default=Path("runs/steering_benchmark.rrd"), help="the plot")
     args = parser.parse_args()
@@ -307,6 +310,9 @@ def main() -> None:
         parser.error(f"unknown law {unknown[0]!r}; choose from {', '.join(STEERING_LAWS)}")
     if args.slews < 0 or args.sweep < 0:
         parser.error("--slews and --sweep must be >= 0")
+    if not (args.duration_s >= 1.0 and args.rate_deg_s > 0):  # nan fails too
+        parser.error("--duration-s must be >= 1 s and --rate-deg-s > 0")
+    DURATION_S, RATE_MAX_DEG_S = args.duration_s, args.rate_deg_s
     geo = geometry(args.array)
     refused = {law: reason for law in laws if (reason := refusal(law, geo))}
     flown = [law for law in laws if law not in refused]
