@@ -7,9 +7,10 @@ slew, where on each fibre F(s) = {beta : H(beta) = s d} the gimbals should be. T
 search over the surface the fibres sweep for 0 <= s <= s_max (momentum_fibres.py):
 
 - levels s_k = k s_max / L, k = 0..L (L = `levels`, fewer for a program so fast that the links between
-  levels would reach less than LINKS_PER_SPACING samples: see `level_count`); level 0 is the start's own fibre arc, as far as null motion at
-  rest reaches in the rest before the slew (`reconfiguration_travel` [rad], the sum of each step's
-  largest angle change); every other level is carried up from the one below (momentum_fibres.next_level);
+  levels would reach less than LINKS_PER_SPACING samples: `level_count`); level 0 is the start's own
+  fibre arc, as far as null motion at rest reaches in the rest before the slew (`reconfiguration_travel`
+  [rad], the sum of each step's largest angle change); every other level is carried up from the one
+  below (momentum_fibres.next_level);
 - a graph: sample i of level k links to every sample j of level k + 1 with
   max_g |beta_j - beta_i| <= margin beta'max dt_k (and at most `link_radius`), dt_k the least time the
   program spends between s_k and s_(k+1) (its largest |s'| there), so the linear path between them
@@ -41,7 +42,7 @@ FIBRE_LENGTH, CROWDING = 100.0, 0.6
 PLAN_WORK_LIMIT = 1e8  # at worst about 50 s of CPU (15 us a sample, measured); 4.1e6 by default
 # The least reach of a link between two levels, in sample spacings: shorter, a sample links only to the one
 # carried up from it and null motion between levels is lost (a 20 s slew refused at 0.53 of the pyramid's
-# envelope with 60 levels, flown with 30; docs/theory/steering.md "Planned paths").
+# support with 60 levels, flown with 32; docs/theory/steering.md "Planned paths").
 LINKS_PER_SPACING = 1.4
 
 
