@@ -6,9 +6,11 @@ A law that sees only the present gimbal angles must fail somewhere in the outer 
 slew, where on each fibre F(s) = {beta : H(beta) = s d} the gimbals should be. The plan is a global
 search over the surface the fibres sweep for 0 <= s <= s_max (momentum_fibres.py):
 
-- levels s_k = k s_max / L, k = 0..L; level 0 is the start's own fibre arc, as far as null motion at
-  rest reaches in the rest before the slew (`reconfiguration_travel` [rad], the sum of each step's
-  largest angle change); every other level is carried up from the one below (momentum_fibres.next_level);
+- levels s_k = k s_max / L, k = 0..L (L = `levels`, fewer for a program so fast that the links between
+  levels would reach less than LINKS_PER_SPACING samples: `level_count`); level 0 is the start's own
+  fibre arc, as far as null motion at rest reaches in the rest before the slew (`reconfiguration_travel`
+  [rad], the sum of each step's largest angle change); every other level is carried up from the one
+  below (momentum_fibres.next_level);
 - a graph: sample i of level k links to every sample j of level k + 1 with
   max_g |beta_j - beta_i| <= margin beta'max dt_k (and at most `link_radius`), dt_k the least time the
   program spends between s_k and s_(k+1) (its largest |s'| there), so the linear path between them
@@ -38,6 +40,10 @@ LINK_RADIUS = 0.3  # [rad] the most any gimbal moves between two levels of the p
 # samples, each linked to at most 2 LINK_RADIUS / (CROWDING spacing) + 1 of the next level.
 FIBRE_LENGTH, CROWDING = 100.0, 0.6
 PLAN_WORK_LIMIT = 1e8  # at worst about 50 s of CPU (15 us a sample, measured); 4.1e6 by default
+# The least reach of a link between two levels, in sample spacings: shorter, a sample links only to the one
+# carried up from it and null motion between levels is lost (a 20 s slew refused at 0.53 of the pyramid's
+# support with 60 levels, flown with 32; docs/theory/steering.md "Planned paths").
+LINKS_PER_SPACING = 1.4
 
 
 @dataclass(slots=True)
@@ -80,6 +86,18 @@ def planning_work(levels: int, spacing: float) -> float:
     return (levels + 1) * samples * (1 + links)
 
 
+def level_count(times: np.ndarray, levels_of_time: np.ndarray, rate_max: float, levels: int, spacing: float,
+                rate_margin: float) -> int:
+    """The levels L to plan on: at most `levels`, and few enough that a link at the program's fastest
+    climb, margin beta'max dt with dt = (s_max / L) / max |s'|, reaches LINKS_PER_SPACING x `spacing` [rad];
+    at least 4. A fast program thus gets fewer, taller levels (never more work than `levels` would take)."""
+    fastest = float((np.abs(np.diff(levels_of_time)) / np.diff(times)).max()) if len(times) > 1 else 0.0
+    if not fastest > 0:
+        return levels
+    reach = rate_margin * rate_max * float(levels_of_time.max()) / (fastest * LINKS_PER_SPACING * spacing)
+    return int(min(levels, max(4, np.floor(reach))))
+
+
 def least_times(times: np.ndarray, levels_of_time: np.ndarray, level_values: np.ndarray) -> np.ndarray:
     """dt_k = (s_(k+1) - s_k) / max |s'| over the program's steps that cross [s_k, s_(k+1)]: the least time
     between the levels, on the way up or down (inf for an interval the program never crosses)."""
@@ -114,6 +132,7 @@ def plan_gimbal_path(momentum, jacobian, start, direction, times, levels_of_time
     start, direction = np.asarray(start, float), np.asarray(direction, float)
     times, levels_of_time = np.asarray(times, float), np.asarray(levels_of_time, float)
     s_max = float(levels_of_time.max())
+    levels = level_count(times, levels_of_time, rate_max, levels, spacing, rate_margin)
     values = np.linspace(0.0, s_max, levels + 1)
     dt = least_times(times, levels_of_time, values)
 
