@@ -195,11 +195,13 @@ def test_an_orbit_runs_signals_go_to_one_tab_a_subsystem_and_it_opens_on_the_res
     sensors and estimator, law and steering, and the result, which it opens on."""
     from testbed.recording.blueprint import RESULT_TAB, blueprint, tab_of
 
-    tabs, views = _tabs(blueprint(ORBIT_CMG_KEYS, 100.0, None))
+    scene = {"body_momenta": {"truth/cmg_momentum": "cmg_momentum"}, "units": {"cmg_momentum": "N m s"}}
+    tabs, views = _tabs(blueprint(ORBIT_CMG_KEYS, 100.0, scene))
     assert list(views) == ["attitude", "cluster", "orbit and environment", "sensors and estimator",
                            "law and steering", RESULT_TAB]
     assert tabs.active_tab == RESULT_TAB
-    assert {k for k in ORBIT_CMG_KEYS if tab_of(k) == "cluster"} == {
+    held = frozenset(scene["body_momenta"])
+    assert {k for k in ORBIT_CMG_KEYS if tab_of(k, held) == "cluster"} == {
         "truth/gimbal_angle", "truth/gimbal_rate", "truth/rotor_rate", "truth/cmg_momentum",
         "truth/singularity_measure", "truth/envelope_share"}
     assert tab_of("truth/torque_drag") == tab_of("truth/orbit_position") == "orbit and environment"

@@ -24,7 +24,6 @@ UNITS = {
     "gimbal_rate_command": "rad/s", "orbit_position": "m", "orbit_velocity": "m/s", "magnetic_field": "T",
     "magnetometer": "T", "magnetorquer_dipole": "A m^2", "omega_estimate": "rad/s", "target_omega": "rad/s",
     "innovation": "rad/s", "error_angle": "rad", "held_momentum": "N m s", "momentum": "N m s",
-    "cmg_momentum": "N m s",
 }
 AXES = {3: ["x", "y", "z"], 4: ["1", "2", "3", "4"]}
 
@@ -52,21 +51,23 @@ def series_names(name: str, width: int, units: dict) -> list[str]:
 
 RESULT_TAB = "result"
 TABS = ("attitude", "cluster", "orbit and environment", "sensors and estimator", "law and steering")
-# The tab of a pipeline group's signals; a truth signal's by its name (CLUSTER_SIGNALS, the
-# orbit's and the environment's), else attitude; a group of a plug-in's own, a tab of its name.
+# The tab of a pipeline group's signals; a truth signal's by its name (CLUSTER_SIGNALS and the
+# momenta the plant's scene declares, the orbit's and the environment's), else attitude; a group
+# of a plug-in's own, a tab of its name.
 GROUP_TABS = {"truth": "attitude", "reference": "attitude", "sensor": "sensors and estimator",
               "estimator": "sensors and estimator", "law": "law and steering", "allocator": "law and steering"}
-CLUSTER_SIGNALS = {"gimbal_angle", "gimbal_rate", "gimbal_rate_command", "rotor_rate", "cmg_momentum",
+CLUSTER_SIGNALS = {"gimbal_angle", "gimbal_rate", "gimbal_rate_command", "rotor_rate",
                    "internal_momentum", "singularity_measure", "envelope_share"}
 ORBIT_ENVIRONMENT_SIGNALS = {"orbit_position", "orbit_velocity", "quat_lvlh", "eclipse", "sun_direction",
                              "magnetic_field", "magnetorquer_dipole"}
 
 
-def tab_of(key: str) -> str:
-    """The tab a signal `group/name` is plotted in (module doc)."""
+def tab_of(key: str, held_momenta=frozenset()) -> str:
+    """The tab a signal `group/name` is plotted in (module doc); `held_momenta`: the truth
+    signals the plant's scene declares as momenta its devices hold (`body_momenta`)."""
     group, name = key.split("/", 1)
     if group == "truth":
-        if name in CLUSTER_SIGNALS:
+        if name in CLUSTER_SIGNALS or key in held_momenta:
             return "cluster"
         if name in ORBIT_ENVIRONMENT_SIGNALS or name.startswith("torque_"):
             return "orbit and environment"
@@ -87,11 +88,12 @@ def blueprint(keys, t_end: float, scene: dict | None, path=None) -> rrb.Blueprin
     """The default layout (module doc): `keys` the signals, each plotted over the whole run
     [0, t_end] s; `path`: the momentum-space path recorded so far (the view looks at it side-on)."""
     units = UNITS | (scene or {}).get("units", {})
+    held = frozenset((scene or {}).get("body_momenta", {}))
     tabs: dict[str, list[str]] = {}
-    for key in sorted(keys, key=lambda k: (TABS.index(tab_of(k)) if tab_of(k) in TABS else len(TABS),
+    for key in sorted(keys, key=lambda k: (TABS.index(tab_of(k, held)) if tab_of(k, held) in TABS else len(TABS),
                                            list(GROUP_TABS).index(k.split("/")[0]) if k.split("/")[0] in GROUP_TABS
                                            else len(GROUP_TABS), k)):
-        tabs.setdefault(tab_of(key), []).append(key)
+        tabs.setdefault(tab_of(key, held), []).append(key)
     # Every plot shows the whole run (not a window around the time cursor).
     whole_run = rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.absolute(seconds=0.0),
                                                       end=rrb.TimeRangeBoundary.absolute(seconds=t_end)))
