@@ -18,7 +18,7 @@ test-fast: .venv/.installed
 docs: .venv/.installed
 	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs build --strict -d site
 
-# The long hostile-input fuzz: 3000 examples instead of the suite's 150 (about 2 min quiet, 15 under load).
+# The long hostile-input fuzz: 3000 examples instead of the suite's 150.
 fuzz: .venv/.installed
 	TESTBED_FUZZ_EXAMPLES=3000 $(PY) -m pytest tests/test_fuzz.py
 
