@@ -1201,15 +1201,20 @@ def test_signal_during_the_trace_write(tmp_path, sig, expected):
                 break
             previous = now
             time.sleep(0.002)
+        ended_first = False
         if seen:
             time.sleep(delay)
+            # on a loaded machine the write may be over before the delay is: no signal reaches
+            # the process, and a finished run (exit 0, a whole trace) is the right outcome
+            ended_first = proc.poll() is not None
             proc.send_signal(sig)
         stdout, stderr = proc.communicate(timeout=60)
         assert seen, f"the trace write was not caught (exit {proc.returncode}): {stderr[-500:]}"
         whole = not out.exists() or subprocess.run([sys.executable, "-m", "testbed", "inspect", out],
                                                    capture_output=True).returncode == 0
         interrupted_writes += not out.exists()
-        if proc.returncode != expected or _partials(folder) or "Traceback" in stderr or not whole:
+        status = 0 if ended_first else expected
+        if proc.returncode != status or _partials(folder) or "Traceback" in stderr or not whole:
             failures.append(f"attempt {attempt} (delay {delay} s): exit {proc.returncode}, left "
                             f"{everything_in(folder)}, stderr {stderr[-600:]!r}")
     assert not failures, "\n".join(failures)
