@@ -155,3 +155,26 @@ def test_another_signal_that_would_end_the_run_ends_it_in_one_line(tmp_path, sig
     assert proc.returncode == 128 + sig, (proc.returncode, err)
     assert err.splitlines() == [f"terminated by {signal.Signals(sig).name}"]
     assert files(tmp_path) == []
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_a_signal_after_the_command_ends_the_process_with_the_commands_status(tmp_path, sig):
+    """Plug-in code holds the exit (an atexit handler that sleeps); a signal once the command
+    has printed its result ends the process at once, with the command's own status 0 and its
+    output whole. Before: the handler's KeyboardInterrupt or the signal itself ended it."""
+    path = scenario(tmp_path, 1.0)
+    proc = subprocess.Popen([sys.executable, "-m", "testbed", "run", str(path), "--out", "t.rrd"], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=os.environ | {"HOSTILE_IMPORT": "atexit_sleep", "PYTHONUNBUFFERED": "1"})
+    lines = []
+    for line in proc.stdout:  # the run's last line names its trace; the command returns right after
+        lines.append(line)
+        if line.startswith("trace:"):
+            break
+    time.sleep(2.0)  # from its last print to its return the command takes microseconds
+    proc.send_signal(sig)
+    rest, err = proc.communicate(timeout=60)
+    out = "".join(lines) + rest
+    assert proc.returncode == 0, (proc.returncode, err)
+    assert "scenario hostile_process: ok" in out and "Traceback" not in err, err
+    assert "kept the process from ending" not in err  # ended by the signal, before the 10 s bound

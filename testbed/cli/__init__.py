@@ -3,6 +3,7 @@
 `python -m testbed`), `main` the command itself (tests call it in their own process)."""
 
 import os
+import signal
 import sys
 import threading
 import time
@@ -20,16 +21,36 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
-    return dispatch(argv)
+    try:
+        return dispatch(argv)
+    except KeyboardInterrupt:  # a Ctrl-C delivered again while the command was already answering one
+        return 130
 
 
 def entry() -> None:
     """Run the command and end the process with its status: Python's own shutdown (joining
     threads, atexit handlers) may take EXIT_BOUND_S at most, and an error it reports is one line."""
     code = main()
+    # The command is over and its status known: a signal from now on (a late repeat of one the
+    # command answered, or one sent while plug-in code delays the exit) ends the process at once
+    # with that status, never with a traceback or as killed by the signal.
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        if signal.getsignal(signum) != signal.SIG_IGN:
+            signal.signal(signum, lambda *_: _exit_now(code))
     sys.unraisablehook = _one_line
     threading.Thread(target=_end_after, args=(code, EXIT_BOUND_S), daemon=True).start()
     sys.exit(code)
+
+
+def _exit_now(code: int) -> None:
+    """End the process with `code` at once, after writing out what the command printed."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            if stream is not None:
+                stream.flush()
+        except (OSError, ValueError):  # a closed or broken stream: nothing more to keep
+            pass
+    os._exit(code)
 
 
 def _end_after(code: int, seconds: float) -> None:
