@@ -22,13 +22,18 @@ def set_bus_mass(spec, inertia, mass) -> None:
     bus.explicitinertial = True
 
 
+def full_inertia(tensor) -> list[float]:
+    """MuJoCo's `fullinertia` order of a symmetric tensor [kg m^2]: (Ixx, Iyy, Izz, Ixy, Ixz, Iyz)."""
+    m = np.asarray(tensor, dtype=float)
+    return [m[0, 0], m[1, 1], m[2, 2], m[0, 1], m[0, 2], m[1, 2]]
+
+
 def set_bus_inertia_tensor(spec, tensor, mass) -> None:
     """Write the bus's full inertia tensor [kg m^2] (3, 3), about its CoM in bus axes, and its mass
     [kg] into `spec` (MuJoCo's fullinertia: it finds the principal axes when it compiles)."""
-    t = np.asarray(tensor, dtype=float)
     bus = spec.body(BUS_BODY)
     bus.mass = check_in_range("model.mass_kg", positive_number("model.mass_kg", mass), MASS_RANGE_KG, "kg")
-    bus.fullinertia = [t[0, 0], t[1, 1], t[2, 2], t[0, 1], t[0, 2], t[1, 2]]
+    bus.fullinertia = full_inertia(tensor)
     bus.explicitinertial = True
 
 

@@ -16,6 +16,7 @@ from testbed.errors import InputError
 from testbed.math.validation import MASS_RANGE_KG, check_in_range, check_inertia_tensor, check_unit_vector
 from testbed.scenario.schema import join, param
 from testbed.scenario.shipped_files import compile_model, load_spec
+from testbed.systems.free_bus import full_inertia
 from testbed.systems.reaction_wheels.wheel_array import (
     ISOTROPIC_SKEW_DEG, MAX_WHEELS, WheelArray, nasa_standard_axes, pyramid_axes, three_orthogonal_axes)
 
@@ -144,12 +145,6 @@ class ReactionWheelsParams(WheelsParams):
         check_inertia_tensor(self.inertia_tensor_kg_m2, join(path, "inertia_tensor_kg_m2"))
         check_in_range(join(path, "mass_kg"), self.mass_kg, MASS_RANGE_KG, "kg")
         super().validate(path)
-
-
-def full_inertia(tensor) -> list[float]:
-    """MuJoCo's `fullinertia` order of a symmetric tensor: (Ixx, Iyy, Izz, Ixy, Ixz, Iyz)."""
-    m = np.asarray(tensor, dtype=float)
-    return [m[0, 0], m[1, 1], m[2, 2], m[0, 1], m[0, 2], m[1, 2]]
 
 
 def wheel_tensor(axis, spin: float, transverse: float) -> np.ndarray:
