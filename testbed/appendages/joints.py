@@ -70,6 +70,25 @@ class AppendageJoints:
         return {name: (f"truth/{PANEL_SIGNAL}", i) for i, name in enumerate(self.panel_names)}
 
 
+def rigid_mass(model: mujoco.MjModel, bus: int) -> tuple[float, np.ndarray, np.ndarray]:
+    """(mass [kg], CoM [m], inertia about the CoM [kg m^2]) of every body but the appendages
+    at qpos0 (wheels and CMGs locked), in the frame of body `bus`: the rigid part the closed
+    forms hang the appendages on (testbed.appendages.closed_form.RigidPart)."""
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    rot_bus, pos_bus = data.xmat[bus].reshape(3, 3), data.xpos[bus]
+    bodies = [b for b in range(1, model.nbody) if not is_appendage(model, b)]
+    masses = model.body_mass[bodies]
+    coms = (data.xipos[bodies] - pos_bus) @ rot_bus
+    com = masses @ coms / masses.sum()
+    inertia = np.zeros((3, 3))
+    for body, mass, position in zip(bodies, masses, coms):
+        principal = rot_bus.T @ data.ximat[body].reshape(3, 3)
+        r = position - com
+        inertia += principal @ np.diag(model.body_inertia[body]) @ principal.T + mass * (r @ r * np.eye(3) - np.outer(r, r))
+    return float(masses.sum()), com, inertia
+
+
 def locked_appendage_mass(model: mujoco.MjModel, bus: int) -> list[tuple[float, np.ndarray, np.ndarray]]:
     """(mass [kg], CoM [m], inertia about the CoM [kg m^2]) of each appendage body at rest
     (qpos0), in the frame of body `bus`: what a rigid model of the spacecraft counts them as."""
