@@ -170,7 +170,7 @@ class Plant:
 
     def step_rates(self) -> dict[str, float]:
         """Rates [rad/s] whose angle a step must resolve, known before the run (testbed.accuracy.
-        step_size): the appendages' fastest mode, when the model has springs on them."""
+        step_size): the fastest pole of the joints' springs and dampers, when the model has appendages."""
         if self.appendages is None:
             return {}
         return {"fastest appendage mode": self.appendages.fastest_mode(self.model)}

@@ -347,13 +347,20 @@ def test_the_trace_draws_the_panels_turning_with_their_recorded_angles(tmp_path)
 
 def test_the_fastest_mode_bounds_the_step_and_a_stiff_panel_is_refused(tmp_path, capsys):
     """The step-size check's appendage rate is the highest free-free mode (the closed form, 1e-9:
-    the same undamped eigenproblem in MuJoCo's coordinates); a panel too stiff for dt_s is refused
-    before the run on one line naming sim.dt_s, exit 2."""
+    the same undamped eigenproblem in MuJoCo's coordinates), and a heavy damper's rate c / J_eff; a
+    panel too stiff for dt_s is refused before the run on one line naming sim.dt_s, exit 2."""
     from testbed.cli import main
     params = params_of(FREE_CASES["a chain of three and a lone panel"])
     plant = ReactionWheelPlant(build(params, 0.01, "RK4"), params)
     expected = free_free_modes(rigid_by_hand(params), params.appendages.wings).frequency[-1]
     assert plant.step_rates()["fastest appendage mode"] == pytest.approx(expected, rel=1e-9)
+    damped = params_of({"wings": [wing([0.0, 0.7, 0.0], [0.0, 1.0, 0.0], [panel(k=1e-3, c=2e4)])]})
+    rate = ReactionWheelPlant(build(damped, 0.01, "RK4"), damped).step_rates()["fastest appendage mode"]
+    # overdamped: the fast pole is c r^T M^-1 r (r the hinge's relative angle), which is c w^2 of
+    # the same panel on a unit spring (F3: w^2 = k r^T M^-1 r); the slow one k / c is 5e-8
+    unit = params_of({"wings": [wing([0.0, 0.7, 0.0], [0.0, 1.0, 0.0], [panel(k=1.0)])]})
+    unit_frequency = free_free_modes(rigid_by_hand(unit), unit.appendages.wings).frequency[0]
+    assert rate == pytest.approx(2e4 * unit_frequency ** 2, rel=1e-6)
     assert RigidPart(*rigid_mass(plant.model, 1)).inertia == pytest.approx(rigid_by_hand(params).inertia, abs=1e-12 * 310)
     stiff = "model.appendages.wings.0.panels.0.stiffness_nm_rad=4e5"
     out = tmp_path / "stiff.rrd"

@@ -66,9 +66,10 @@ class AppendageJoints:
         return signals
 
     def fastest_mode(self, model: mujoco.MjModel) -> float:
-        """The highest undamped frequency [rad/s] of the joint springs at rest (qpos0), every
-        other joint and the bus free: sqrt of the largest eigenvalue of M^-1 K, K the joints'
-        stiffness on their dofs. What one step must resolve (testbed.accuracy.step_size)."""
+        """The fastest pole |s| [rad/s] of the joints' springs and dampers at rest (qpos0), every
+        other joint and the bus free: the largest eigenvalue modulus of [[0, 1], [-M^-1 K, -M^-1 C]],
+        K and C the joints' stiffness and damping on their dofs. What one explicit step must resolve
+        (testbed.accuracy.step_size): a stiff spring's frequency, or a heavy damper's rate c / J."""
         data = mujoco.MjData(model)
         mujoco.mj_forward(model, data)
         mass = np.zeros((model.nv, model.nv))
@@ -77,7 +78,10 @@ class AppendageJoints:
         for joint in np.flatnonzero(model.jnt_stiffness):
             if int(model.jnt_type[joint]) in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
                 stiffness[model.jnt_dofadr[joint]] = model.jnt_stiffness[joint]
-        return float(np.sqrt(max(0.0, np.max(np.linalg.eigvals(np.linalg.solve(mass, np.diag(stiffness))).real))))
+        solved = np.linalg.solve(mass, np.hstack([np.diag(stiffness), np.diag(model.dof_damping)]))
+        n = model.nv
+        system = np.block([[np.zeros((n, n)), np.eye(n)], [-solved[:, :n], -solved[:, n:]]])
+        return float(np.max(np.abs(np.linalg.eigvals(system))))
 
     def hinge_signals(self) -> dict[str, tuple[str, int]]:
         """Hinge joint name -> (recorded signal, column) for the 3D view (recording.scene.moving_parts)."""
