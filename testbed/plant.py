@@ -16,6 +16,7 @@ import struct
 import mujoco
 import numpy as np
 
+from testbed.appendages.joints import AppendageJoints
 from testbed.scenario.shipped_files import INTEGRATORS
 
 INTEGRATOR_NAMES = {int(value): name for name, value in INTEGRATORS.items()}
@@ -58,10 +59,14 @@ class SimulationDiverged(RuntimeError):
 class Plant:
     """A compiled model with a free-flying body named `bus`, driven by ideal body torques."""
 
-    def __init__(self, bus):
+    def __init__(self, bus, appendage_start=()):
+        """`appendage_start`: the appendages' coordinates at the start (testbed.appendages.build
+        .initial_positions), when the model has panels or slosh masses."""
         self.bus = bus  # addresses of the free bus (FreeBus) or the system's own equivalent
         self.model = bus.model
         self.data = mujoco.MjData(self.model)
+        self.appendages = AppendageJoints.find(self.model, self.data)
+        self.appendage_start = list(appendage_start)
         # the bus's rate and attitude as views of MuJoCo's arrays, which never move (a FreeBus):
         # each read-out copies a view, a quarter of the cost of slicing data's array anew
         views = getattr(bus, "state_views", None)
@@ -160,7 +165,13 @@ class Plant:
     # --- what subclasses refine ---------------------------------------------------------
     def initialise(self, initial) -> None:
         self.bus.set_free_joint_state(self.data, initial.omega, initial.quat)
+        self.place_appendages()
         mujoco.mj_forward(self.model, self.data)
+
+    def place_appendages(self) -> None:
+        """Deflect the panels and slosh masses as the scenario starts them (before mj_forward)."""
+        if self.appendages is not None and self.appendage_start:
+            self.appendages.set_positions(self.appendage_start)
 
     def truth(self) -> dict[str, np.ndarray]:
         signals = {"omega": self.omega(), "quat": self.quat(),
@@ -169,6 +180,8 @@ class Plant:
             signals["kinetic_energy"] = np.array([self.kinetic_energy()])
         if self.surroundings is not None:
             signals.update(self.surroundings.signals)
+        if self.appendages is not None:
+            signals.update(self.appendages.truth())
         return signals
 
     def derived_signals(self, recorder) -> dict[str, np.ndarray]:

@@ -10,6 +10,7 @@ The plant, the servos, the faults, the reduced model and the cluster geometry ar
 machinery of testbed/systems/cmg_rhombus, which reads every unit from the compiled model.
 """
 
+from testbed.appendages.build import initial_positions
 from testbed.systems.cmg_cluster import envelope_command, hybrid_allocator  # noqa: F401  (register)
 from testbed.systems.cmg_cluster.hybrid_plant import HybridPlant
 from testbed.systems.cmg_cluster.model import CmgClusterParams, build
@@ -23,7 +24,8 @@ def make_plant(params: CmgClusterParams, sim) -> CmgPlant:
     check_fault_times(params.faults, sim.end_time_s - sim.control_period_s,  # the last tick
                       sim.dt_s / MAX_DT_OVER_ROTOR_TAU, sim.dt_s)
     plant = CmgPlant if params.wheels is None else HybridPlant
-    return plant(build(params, sim.dt_s, sim.integrator), params, sim.control_period_s)
+    start = [] if params.appendages is None else initial_positions(params.appendages)
+    return plant(build(params, sim.dt_s, sim.integrator), params, sim.control_period_s, start)
 
 
 __all__ = ["CmgClusterParams", "build", "make_plant"]

@@ -31,8 +31,8 @@ class HybridPlant(CmgPlant):
     `wheel_momentum_body`. The internal momentum (the bus-rotation row of the mass matrix) holds
     gimbals, rotors and wheels alike."""
 
-    def __init__(self, model, params, control_period: float):
-        super().__init__(model, params, control_period)
+    def __init__(self, model, params, control_period: float, appendage_start=()):
+        super().__init__(model, params, control_period, appendage_start)
         self.wheels = WheelDrive(model, self.data, params.wheels)  # their initial speeds are in the keyframe
         self.actuators = self.actuators | {"wheel_torques": (self.wheels.array.count,)}
 

@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from testbed.appendages.build import add_appendages, initial_positions
+from testbed.appendages.params import AppendagesParams
 from testbed.errors import InputError
 from testbed.math.validation import check_principal_inertia
 from testbed.scenario.schema import join, param
@@ -40,6 +42,7 @@ class CmgClusterParams(CmgUnitsParams):
         every rotor balanced.
     wheels: reaction wheels on the same bus, the reaction_wheels system's array block
         (testbed.systems.reaction_wheels.model.WheelsParams); None: none.
+    appendages: hinged panels and slosh masses (testbed.appendages); None: a rigid bus.
     The other fields are CmgRhombusParams's, for every unit.
     """
 
@@ -51,6 +54,7 @@ class CmgClusterParams(CmgUnitsParams):
     rotor_static_imbalance_kg_m: list[float] = param([], ge=0, doc="Us of each rotor (simple jitter)")
     rotor_dynamic_imbalance_kg_m2: list[float] = param([], ge=0, doc="Ud of each rotor (simple jitter)")
     wheels: WheelsParams | None = param(None, doc="reaction wheels on the same bus (a hybrid bus; absent: none)")
+    appendages: AppendagesParams | None = param(None, doc="solar-array wings and slosh masses on the bus (absent: a rigid bus)")
 
     def units(self) -> ArrayLayout:
         """The array's units (arrays.layout)."""
@@ -82,7 +86,9 @@ class CmgClusterParams(CmgUnitsParams):
 def build(params: CmgClusterParams, dt: float, integrator: str = "RK4") -> mujoco.MjModel:
     """Compile models/cmg_cluster.xml with the array's units added and every field of `params`
     applied through MjSpec; with `params.wheels`, the reaction_wheels builder's wheels added to
-    the same bus after the units (`add_wheels`), their initial speeds in the keyframe."""
+    the same bus after the units (`add_wheels`), their initial speeds in the keyframe; with
+    `params.appendages`, the panels and slosh masses after those (testbed.appendages.build),
+    their initial deflections in the keyframe."""
     spec = load_spec("cmg_cluster.xml", dt, integrator)
     set_bus_inertia_tensor(spec, params.inertia_tensor(), params.mass_kg)
     units = params.units()
@@ -90,16 +96,22 @@ def build(params: CmgClusterParams, dt: float, integrator: str = "RK4") -> mujoc
     angles = units.gimbal_angles_deg if params.gimbal_angles_deg is None else params.gimbal_angles_deg
     model = compile_units(spec, params, dt, [unit_build(params, position, frame, own) for position, frame, own
                                              in zip(units.positions, units.frames(), units.own)], angles)
-    if params.wheels is None:
+    if params.wheels is None and params.appendages is None:
         return model
-    # the units are placed and sized in the spec now: the wheels' joints and motors come after
-    # theirs, so the keyframe grows at its end
-    add_wheels(spec, spec.body(BUS_BODY), params.wheels)
+    # the units are placed and sized in the spec now: the wheels' and appendages' joints (and the
+    # wheels' motors) come after theirs, so the keyframe grows at its end
     key = spec.key(INITIAL_KEY)
-    count = len(params.wheels.axes())
-    key.qpos = list(key.qpos) + [0.0] * count
-    key.qvel = list(key.qvel) + params.wheels.initial_speeds().tolist()
-    key.ctrl = list(key.ctrl) + [0.0] * count
+    if params.wheels is not None:
+        add_wheels(spec, spec.body(BUS_BODY), params.wheels)
+        count = len(params.wheels.axes())
+        key.qpos = list(key.qpos) + [0.0] * count
+        key.qvel = list(key.qvel) + params.wheels.initial_speeds().tolist()
+        key.ctrl = list(key.ctrl) + [0.0] * count
+    if params.appendages is not None:
+        add_appendages(spec, spec.body(BUS_BODY), params.appendages)
+        start = initial_positions(params.appendages)
+        key.qpos = list(key.qpos) + start
+        key.qvel = list(key.qvel) + [0.0] * len(start)
     return compile_model(spec)
 
 

@@ -128,7 +128,8 @@ class CmgRhombus(FreeBus):
         mujoco.mj_forward(self.model, data)
 
     def internal_momentum_body(self, data):
-        """Angular momentum of the gimbals and rotors relative to the bus, bus frame [N m s].
+        """Angular momentum of the gimbals and rotors (and any wheels and appendages) relative
+        to the bus, bus frame [N m s].
 
         The bus-rotation row of the mass matrix times the gimbal and rotor joint rates:
         sum_k I_k w_rel,k (+ m_k r_k x v_rel,k, zero here since every CoM lies on its
@@ -148,11 +149,12 @@ class CmgPlant(Plant):
 
     holds_internal_momentum = True
 
-    def __init__(self, model, params, control_period: float):
+    def __init__(self, model, params, control_period: float, appendage_start=()):
         """`params`: the validated parameters `model` was built from (CmgRhombusParams or
         CmgClusterParams: its servo model and limits, cancel_initial_momentum); `control_period`
-        [s]: how long each command is held. The commands take one value per unit."""
-        super().__init__(CmgRhombus(model))
+        [s]: how long each command is held; `appendage_start`: Plant's. The commands take one
+        value per unit."""
+        super().__init__(CmgRhombus(model), appendage_start)
         units = self.bus.units
         self.actuators = {"body_torque": (3,), "gimbal_rates": (units,), "rotor_speeds": (units,)}
         self.geometry = self.bus.geometry
@@ -233,6 +235,9 @@ class CmgPlant(Plant):
 
     def initialise(self, initial) -> None:
         self.bus.initialise(self.data, initial.omega, initial.quat)
+        if self.appendage_start:
+            self.place_appendages()
+            mujoco.mj_forward(self.model, self.data)
         if self.cancel_initial_momentum:
             self._cancel_momentum()
         self.servo.start(self.data)  # at the gimbal angles the case starts from
@@ -334,8 +339,10 @@ class CmgPlant(Plant):
         singular surfaces (momentum_envelope.py, gimbal axes and h_i from the model) with the run's
         H(t) coloured by sqrt(det(J J^T)) (its largest value for n unit columns is (n/3)^(3/2))."""
         model = self.model
-        parts = moving_parts(model, self.bus.bus_body_id,
-                             {name: ("truth/gimbal_angle", i) for i, name in enumerate(self.bus.gimbal_names)})
+        hinges = {name: ("truth/gimbal_angle", i) for i, name in enumerate(self.bus.gimbal_names)}
+        if self.appendages is not None:  # the panels turn with their recorded hinge angles
+            hinges |= self.appendages.hinge_signals()
+        parts = moving_parts(model, self.bus.bus_body_id, hinges)
         rotors = {f"{gimbal}/{rotor}": i for i, (gimbal, rotor) in enumerate(zip(self.bus.gimbal_names,
                                                                                 self.bus.rotor_names))}
         for part in parts:

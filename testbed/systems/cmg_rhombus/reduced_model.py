@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from testbed.appendages.joints import is_appendage, locked_appendage_mass
 from testbed.systems.free_bus import BUS_BODY
 from testbed.systems.cmg_rhombus.cluster import CLUSTER_SYSTEMS, ClusterGeometry, unit_count, unit_names
 from testbed.math.quaternion import quat_to_matrix
@@ -115,7 +116,8 @@ class CmgMassModel:
         wheel_axes, wheel_spin = [], []
         gimbal_ids = {model.body(name).id for name in unit_names(unit_count(model))[0]}
         for body_id in range(model.nbody):
-            if model.body_parentid[body_id] != bus_id or body_id in gimbal_ids or body_id == bus_id:
+            if (model.body_parentid[body_id] != bus_id or body_id in gimbal_ids or body_id == bus_id
+                    or is_appendage(model, body_id)):
                 continue
             # any other body hinged to the bus is a wheel: an axisymmetric rotor whose CoM is on
             # its axis, so its locked inertia is constant and its momentum Js Omega a
@@ -135,6 +137,10 @@ class CmgMassModel:
             coms.append(com)
             wheel_axes.append(axis)
             wheel_spin.append(axis @ inertia @ axis)
+        for mass, com, inertia in locked_appendage_mass(model, bus_id):  # panels and slosh masses held at rest
+            masses.append(mass)
+            coms.append(com)
+            inertias.append(inertia)
         masses, coms = np.array(masses, dtype=float), np.array(coms)
         system_com = masses @ coms / masses.sum()
         constant = sum(inertias)  # the bus's and the wheels' own: every CMG's turns with its gimbal

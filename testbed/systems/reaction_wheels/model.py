@@ -12,6 +12,8 @@ from typing import Literal
 import mujoco
 import numpy as np
 
+from testbed.appendages.build import add_appendages
+from testbed.appendages.params import AppendagesParams
 from testbed.errors import InputError
 from testbed.math.validation import MASS_RANGE_KG, check_in_range, check_inertia_tensor, check_unit_vector
 from testbed.scenario.schema import join, param
@@ -140,6 +142,7 @@ class ReactionWheelsParams(WheelsParams):
                                                     length=3, doc="the bus's inertia tensor about its CoM, bus axes, "
                                                     "products of inertia off the diagonal (I_xy = -sum m x y)")
     mass_kg: float = param(500.0, gt=0, doc="the bus alone (the wheels add theirs)")
+    appendages: AppendagesParams | None = param(None, doc="solar-array wings and slosh masses on the bus (absent: a rigid bus)")
 
     def validate(self, path: str) -> None:
         check_inertia_tensor(self.inertia_tensor_kg_m2, join(path, "inertia_tensor_kg_m2"))
@@ -162,13 +165,15 @@ def motor_names(count: int) -> list[str]:
 
 
 def build(params: ReactionWheelsParams, dt: float, integrator: str) -> mujoco.MjModel:
-    """Compile models/reaction_wheels.xml with the bus's mass and inertia tensor and the wheels
-    (`add_wheels`), all through MjSpec."""
+    """Compile models/reaction_wheels.xml with the bus's mass and inertia tensor, the wheels
+    (`add_wheels`) and any appendages after them (testbed.appendages.build), all through MjSpec."""
     spec = load_spec("reaction_wheels.xml", dt, integrator)
     bus = spec.body("bus")
     bus.mass = params.mass_kg
     bus.fullinertia = full_inertia(check_inertia_tensor(params.inertia_tensor_kg_m2, "model.inertia_tensor_kg_m2"))
     add_wheels(spec, bus, params)
+    if params.appendages is not None:
+        add_appendages(spec, bus, params.appendages)
     return compile_model(spec)
 
 

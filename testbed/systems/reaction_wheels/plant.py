@@ -6,6 +6,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from testbed.appendages.build import initial_positions
 from testbed.plant import Plant, float_writer
 from testbed.recording.scene import moving_parts
 from testbed.systems.free_bus import FreeBus
@@ -57,7 +58,7 @@ class ReactionWheelPlant(Plant):
     `wheel_momentum` and `wheel_momentum_body`."""
 
     def __init__(self, model: mujoco.MjModel, params: ReactionWheelsParams):
-        super().__init__(FreeBus(model))
+        super().__init__(FreeBus(model), [] if params.appendages is None else initial_positions(params.appendages))
         self.wheels = WheelDrive(model, self.data, params)
         self.array = self.wheels.array
         self.actuators = {"body_torque": (3,), "wheel_torques": (self.array.count,)}
@@ -114,7 +115,9 @@ class ReactionWheelPlant(Plant):
 
     def scene(self) -> dict:
         """The base scene plus the wheels (drawn at their mount, not turning: a balanced wheel's
-        angle enters no equation) and the wheels' momentum on the bus."""
-        return super().scene() | {"moving_parts": moving_parts(self.model, self.bus.bus_body_id, {}),
+        angle enters no equation), the panels turning with their recorded hinge angles, and the
+        wheels' momentum on the bus."""
+        hinges = {} if self.appendages is None else self.appendages.hinge_signals()
+        return super().scene() | {"moving_parts": moving_parts(self.model, self.bus.bus_body_id, hinges),
                                   "body_momenta": {"truth/wheel_momentum_body": "wheel_momentum"},
                                   "units": {"wheel_momentum_body": "N m s", "wheel_momentum": "N m s"}}

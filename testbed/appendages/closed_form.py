@@ -1,0 +1,142 @@
+"""Closed-form modes of a bus with hinged panels, and of the slosh models (docs/theory/flexible.md).
+
+The panels' modes follow from the linearised planar equations of rigid bodies joined by torsional
+springs: with every hinge axis along one bus axis `a` that is principal for the rigid part, and
+every CoM in one plane normal to it, motion in that plane decouples from the rest. The
+coordinates are the absolute angles about `a` of the rigid part (theta_0) and of each panel;
+the translation is eliminated by the fixed system CoM (docs/theory/flexible.md, eq. F1-F4):
+
+    M = diag(I_b) + sum_b m_b W_b^T W_b - (1/m) (sum_b m_b W_b)^T (sum_b m_b W_b),
+
+W_b (3, n) mapping the angle rates to body b's CoM velocity (a x lever for each body on the path
+from the bus to b), and K, C the hinge springs and dampers on the relative angles. Clamped (the bus
+held), the bus's column and the CoM term drop out: a lone panel has w = sqrt(k / J_hinge).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from testbed.appendages.params import WingParams
+
+PLANAR_TOLERANCE = 1e-9  # relative: how far from planar a configuration may be for these forms to hold
+
+
+@dataclass(frozen=True)
+class RigidPart:
+    """The rigid spacecraft the wings hang on: mass [kg], CoM [m] and inertia about it [kg m^2], bus axes."""
+
+    mass: float
+    com: np.ndarray
+    inertia: np.ndarray
+
+
+@dataclass(frozen=True)
+class Modes:
+    """Natural frequencies [rad/s] and damping ratios of the elastic modes, lowest first."""
+
+    frequency: np.ndarray
+    damping_ratio: np.ndarray
+
+
+def _modes(mass, stiffness, damping) -> Modes:
+    """The elastic modes of M q'' + C q' + K q = 0: the eigenvalues s of the first-order system
+    with Im s > 0 (and the overdamped ones, real and negative), w_n = |s|, zeta = -Re s / |s|;
+    the rigid modes (s = 0) dropped."""
+    n = len(mass)
+    solve = np.linalg.solve(mass, np.hstack([stiffness, damping]))
+    system = np.block([[np.zeros((n, n)), np.eye(n)], [-solve[:, :n], -solve[:, n:]]])
+    s = np.linalg.eigvals(system)
+    scale = np.sqrt(np.max(np.abs(np.linalg.eigvals(np.linalg.solve(mass, stiffness)))))
+    elastic = s[(np.abs(s) > 1e-7 * scale) & (s.imag >= -1e-12 * scale)]
+    elastic = elastic[np.argsort(np.abs(elastic))]
+    return Modes(np.abs(elastic), -elastic.real / np.abs(elastic))
+
+
+def planar_parts(rigid: RigidPart, wings: list[WingParams]):
+    """(masses (B,), levers (B, 3, n), inertias about the axis (B,), K, C) of the planar model
+    about the common hinge axis (module doc), bodies (the rigid part, each panel wing by wing,
+    root first), coordinates their absolute angles in the same order; raises ValueError when the
+    configuration is not planar (hinge axes not parallel, the axis not principal for the rigid
+    part, CoMs off one plane)."""
+    axis = np.asarray(wings[0].hinge_axis, float)
+    for wing in wings:
+        if np.linalg.norm(np.cross(wing.hinge_axis, axis)) > PLANAR_TOLERANCE:
+            raise ValueError("the wings' hinge axes are not parallel")
+    torque = rigid.inertia @ axis
+    if np.linalg.norm(torque - (axis @ torque) * axis) > PLANAR_TOLERANCE * np.linalg.norm(torque):
+        raise ValueError("the hinge axis is not a principal axis of the rigid part")
+    panels = [(wing, p, panel) for wing in wings for p, panel in enumerate(wing.panels)]
+    n = 1 + len(panels)
+    masses, levers, inertias = [rigid.mass], [np.zeros((3, n))], [axis @ rigid.inertia @ axis]
+    levers[0][:, 0] = np.cross(axis, rigid.com)
+    heights = [axis @ rigid.com]
+    column = 1
+    for wing in wings:
+        span = np.asarray(wing.span_axis, float)
+        path = [np.cross(axis, wing.hinge_position_m)]  # bus -> root hinge, then hinge -> hinge
+        columns = [0]
+        for panel in wing.panels:
+            lever = np.zeros((3, n))
+            for c, arm in zip(columns, path):
+                lever[:, c] = arm
+            lever[:, column] = np.cross(axis, panel.offset() * span)
+            masses.append(panel.mass_kg)
+            levers.append(lever)
+            inertias.append(panel.inertia()[1])
+            heights.append(axis @ (np.asarray(wing.hinge_position_m, float)))
+            path.append(np.cross(axis, panel.length_m * span))
+            columns.append(column)
+            column += 1
+    size = max(np.max(np.abs(heights)), max(np.linalg.norm(lever) for lever in levers), 1.0)
+    if np.ptp(heights) > PLANAR_TOLERANCE * size:
+        raise ValueError("the CoMs do not lie in one plane normal to the hinge axis")
+    stiffness, damping = np.zeros((n, n)), np.zeros((n, n))
+    column = 1
+    for wing in wings:
+        parent = 0
+        for panel in wing.panels:
+            relative = np.zeros(n)
+            relative[column], relative[parent] = 1.0, -1.0
+            stiffness += panel.stiffness_nm_rad * np.outer(relative, relative)
+            damping += panel.damping_nms_rad * np.outer(relative, relative)
+            parent, column = column, column + 1
+    return np.array(masses), np.array(levers), np.array(inertias), stiffness, damping
+
+
+def free_free_modes(rigid: RigidPart, wings: list[WingParams]) -> Modes:
+    """The elastic modes of the free spacecraft in the hinge plane: M of the module doc
+    (docs/theory/flexible.md, eq. F3), the translation eliminated by the fixed CoM."""
+    masses, levers, inertias, stiffness, damping = planar_parts(rigid, wings)
+    momentum = np.einsum("b,bij->ij", masses, levers)
+    mass = np.diag(inertias) + np.einsum("b,bki,bkj->ij", masses, levers, levers) - momentum.T @ momentum / masses.sum()
+    return _modes(mass, stiffness, damping)
+
+
+def clamped_modes(rigid: RigidPart, wings: list[WingParams]) -> Modes:
+    """The modes of the panels with the bus held still (theta_0 = 0, no translation): the panels'
+    own kinetic energy, each CoM moved by the hinges inboard of it (eq. F6)."""
+    masses, levers, inertias, stiffness, damping = planar_parts(rigid, wings)
+    panels = levers[1:, :, 1:]
+    mass = np.diag(inertias[1:]) + np.einsum("b,bki,bkj->ij", masses[1:], panels, panels)
+    return _modes(mass, stiffness[1:, 1:], damping[1:, 1:])
+
+
+def two_body_frequency(rigid_inertia: float, rigid_mass: float, hinge_lever, panel_inertia: float,
+                       panel_mass: float, panel_lever, stiffness: float) -> float:
+    """Free-free frequency [rad/s] of two bodies pinned at a hinge with torsional spring k [N m/rad]:
+    w^2 = k (M11 + M22 + 2 M12) / det M, M11 = I1 + mu |a|^2, M22 = I2 + mu |b|^2, M12 = -mu a.b,
+    mu = m1 m2 / (m1 + m2), a and b the in-plane vectors from each CoM to the hinge [m]
+    (docs/theory/flexible.md, eq. F5)."""
+    a, b = np.asarray(hinge_lever, float), np.asarray(panel_lever, float)
+    mu = rigid_mass * panel_mass / (rigid_mass + panel_mass)
+    m11, m22, m12 = rigid_inertia + mu * a @ a, panel_inertia + mu * b @ b, -mu * a @ b
+    return float(np.sqrt(stiffness * (m11 + m22 + 2.0 * m12) / (m11 * m22 - m12 * m12)))
+
+
+def pendulum_frequency(acceleration: float, length: float, bob_inertia: float, mass: float) -> float:
+    """A pendulum's small-swing frequency [rad/s] under a steady acceleration g [m/s^2] with the
+    pivot held: w^2 = m g L / (m L^2 + I_bob), sqrt(g / L) for a point bob."""
+    return float(np.sqrt(mass * acceleration * length / (mass * length ** 2 + bob_inertia)))
