@@ -49,8 +49,9 @@ def test_settling_time_edges():
 
 def test_rate_spectrum_peaks_at_the_mode_and_holds_its_power():
     """A decaying rate oscillation at f0 = 0.613 Hz on two axes, plus white noise of known
-    variance: the PSD's peak lies within one bin (2/window) of f0, and ∫S df of a steady
-    sinusoid of amplitude a is a²/2 (Parseval; 2 % for the Hann window's leakage)."""
+    variance: the PSD's refined peak lies within a fifth of a bin (2/window) of f0 (a Gaussian
+    through the Hann window's main lobe), and ∫S df of a steady sinusoid of amplitude a is a²/2
+    (Parseval; 2 % for the Hann window's leakage)."""
     rng = np.random.default_rng(7)
     f0, dt, after = 0.613, 0.02, 20.0
     time = np.arange(0.0, 140.0, dt)
@@ -58,7 +59,7 @@ def test_rate_spectrum_peaks_at_the_mode_and_holds_its_power():
     omega = np.column_stack([1e-3 * decay * np.sin(2 * np.pi * f0 * time), 4e-4 * decay * np.cos(2 * np.pi * f0 * time),
                              1e-6 * rng.standard_normal(len(time))])
     f, psd = rate_spectrum(time, omega, after)
-    assert abs(spectral_peak(f, psd) - f0) <= f[1]
+    assert abs(spectral_peak(f, psd) - f0) <= 0.2 * f[1]
     assert f[1] == pytest.approx(2.0 / 120.0, rel=1e-3)  # segments of half the 120 s window
     steady = np.column_stack([2e-3 * np.sin(2 * np.pi * f0 * time), np.zeros(len(time)), np.zeros(len(time))])
     f, psd = rate_spectrum(time, steady, after)

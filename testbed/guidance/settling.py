@@ -52,5 +52,13 @@ def rate_spectrum(time, omega, after: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def spectral_peak(f, psd) -> float:
-    """The frequency [Hz] of the largest PSD value above 0 Hz."""
-    return float(f[1:][np.argmax(psd[1:])])
+    """The frequency [Hz] of the largest PSD value above 0 Hz, refined by the parabola through
+    the logarithms of it and its two neighbours (a Gaussian fitted to the peak: a Hann window's
+    main lobe is close to one, so the estimate lands within a small fraction of a bin)."""
+    k = 1 + int(np.argmax(psd[1:]))
+    if k == len(f) - 1:
+        return float(f[k])
+    low, mid, high = np.log(np.maximum(psd[k - 1:k + 2], np.finfo(float).tiny))
+    curvature = low - 2.0 * mid + high
+    shift = 0.5 * (low - high) / curvature if curvature < 0 else 0.0
+    return float(f[k] + shift * (f[1] - f[0]))

@@ -57,5 +57,5 @@ def bus_rate_psd(run):
 
 @metric("jitter_peak_hz", applies=_rate_bound, uses=("truth/omega",))
 def jitter_peak_hz(run) -> float:
-    """Frequency of the bus-rate PSD's peak after the slew's end (Welch, resolution 2/window) [Hz]."""
+    """Frequency of the bus-rate PSD's peak after the slew's end (Welch, the peak's bin refined by a Gaussian) [Hz]."""
     return spectral_peak(*_spectrum(run))
