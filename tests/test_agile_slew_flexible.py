@@ -23,7 +23,7 @@ from testbed.scenario.loading import load_scenario
 from testbed.shaping.shapers import residual_vibration, shaper_for
 from testbed.systems.cmg_cluster.model import build
 
-UNSHAPED, SHAPED = "agile_slew_flexible", "agile_slew_flexible_shaped"
+UNSHAPED, SHAPED, CAMPAIGN = "agile_slew_flexible", "agile_slew_flexible_shaped", "agile_slew_flexible_campaign"
 FIT_WINDOW_S = 40.0
 # The continuous linear model leaves out the zero-order hold of the 20 Hz control: half a period
 # of delay, 2 deg of phase at the mode, moves the closed-loop pole by about a percent. What it
@@ -52,11 +52,12 @@ def rigid_part(model: mujoco.MjModel) -> RigidPart:
     return RigidPart(mass, com, inertia)
 
 
-def closed_loop_poles(name: str) -> tuple[complex, complex]:
+def closed_loop_poles(name: str, overrides=()) -> tuple[complex, complex]:
     """(coupled mode, attitude loop): the closed-loop poles with Im > 0 of the planar model of
-    `name` under the slew law's PD about z; the coupled mode is the elastic one that moves the
-    bus (both wings deflect alike), the attitude loop's the slowest."""
-    scenario = load_scenario(name)
+    `name` under the slew law's PD about z. The attitude loop's is the one that moves the bus most
+    against the panels; the coupled mode the elastic one that moves the bus most (with two alike
+    wings, the mode in which they swing alike; the other leaves the bus's angle still)."""
+    scenario = load_scenario(name, list(overrides))
     rigid = rigid_part(build(scenario.model, scenario.sim.dt_s))
     mass_b, levers, inertias, stiffness, damping = planar_parts(rigid, scenario.model.appendages.wings)
     momentum = np.einsum("b,bij->ij", mass_b, levers)
@@ -73,9 +74,17 @@ def closed_loop_poles(name: str) -> tuple[complex, complex]:
     poles, vectors = np.linalg.eig(system)
     upper = poles.imag > 0
     poles, vectors = poles[upper], vectors[:n, upper]
-    symmetric = np.abs(vectors[1] - vectors[2]) < 1e-9 * np.abs(vectors).max(axis=0)  # both wings alike
-    elastic = symmetric & (np.abs(vectors[1]) > np.abs(vectors[0]))
-    return complex(poles[elastic][0]), complex(poles[~elastic & symmetric][0])
+    bus_share = np.abs(vectors[0]) / np.abs(vectors[1:]).max(axis=0)
+    order = np.argsort(bus_share)[::-1]
+    return complex(poles[order[1]]), complex(poles[order[0]])
+
+
+def ringing_band(pole: complex) -> tuple[float, float]:
+    """Where the PSD of a mode's decaying ringing peaks [Hz]: between the power spectrum's peak of a
+    damped oscillation, ω_n √(1 - 2ζ²), and its damped frequency ω_d = ω_n √(1 - ζ²); widened by
+    1 % each way for Welch's Gaussian-refined bin (a tenth of 2/90 s) and the 20 Hz hold's shift."""
+    wn, zeta = abs(pole), -pole.real / abs(pole)
+    return 0.99 * wn * np.sqrt(1 - 2 * zeta**2) / (2 * np.pi), 1.01 * pole.imag / (2 * np.pi)
 
 
 def ringing(result, poles) -> float:
@@ -99,15 +108,14 @@ def unshaped():
 @pytest.mark.slow
 def test_unshaped_slew_rings_at_the_closed_loop_mode(unshaped):
     """The bus-rate PSD after the slew peaks at the coupled mode under the attitude loop (linear
-    model: 0.2189 Hz, 10 % damping; free-free 0.2273 Hz): within 1 % (a tenth of Welch's bin of
-    2/90 s, refined by a Gaussian). The rate settles on the last peak of that ringing: between
+    model: 0.2189 Hz, 10 % damping; free-free 0.2273 Hz), within `ringing_band`. The rate settles on the last peak of that ringing: between
     ln(A/b)/σ - π/ω_d and ln(A/b)/σ, A the amplitude of the rate's fit on the same two poles."""
     result, poles = unshaped
     mode = poles[0]
     assert result.passed
     f_mode = abs(mode) / (2 * np.pi)
     assert f_mode == pytest.approx(0.2189, abs=5e-5) and -mode.real / abs(mode) == pytest.approx(0.100, abs=5e-4)
-    assert result.metrics["jitter_peak_hz"] == pytest.approx(f_mode, rel=0.01)
+    assert ringing_band(mode)[0] <= result.metrics["jitter_peak_hz"] <= ringing_band(mode)[1]  # ω_d
     time, omega = result.trace["truth/omega"]
     end = result.data.statistics["law"]["slew_end_s"]
     window = (time >= end) & (time <= end + FIT_WINDOW_S)
@@ -138,3 +146,18 @@ def test_shaped_slew_residual_vibration_is_the_shaper_sensitivity(unshaped, kind
     assert shaped.metrics["settling_time_rate_s"] < result.metrics["settling_time_rate_s"]
     if (kind, detuning) == ("zvd", 1.0):
         assert shaped.passed
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("stiffness, damping", [(60, 16), (480, 1)])
+def test_campaign_corners_ring_at_their_closed_loop_modes(stiffness, damping):
+    """Two corners of agile_slew_flexible_campaign's grid (one wing): the bus-rate PSD peaks at
+    the coupled mode of the planar closed form under the attitude loop (`ringing_band`; the soft,
+    damped wing's ζ = 0.175 puts the band 1.5-3.1 % below ω_n).
+    """
+    sets = [f"model.appendages.wings.0.panels.0.stiffness_nm_rad={stiffness}",
+            f"model.appendages.wings.0.panels.0.damping_nms_rad={damping}"]
+    mode, _ = closed_loop_poles(CAMPAIGN, sets)
+    result = run_scenario(load_scenario(CAMPAIGN, sets), None)
+    assert result.status == "ok"
+    assert ringing_band(mode)[0] <= result.metrics["jitter_peak_hz"] <= ringing_band(mode)[1]
