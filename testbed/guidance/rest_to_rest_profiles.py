@@ -17,7 +17,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import PPoly
 
 from testbed.shaping.shapers import Shaper
 
@@ -50,6 +49,8 @@ class RestToRestProfile:
 
     def __post_init__(self):
         if self.kind == "s_curve":
+            from scipy.interpolate import PPoly  # here: every run imports this module, few fly an s-curve
+
             edges, signs = s_curve_jerk(self.jerk_fraction, self.coast_fraction)
             position = PPoly(signs[None, :], edges).antiderivative(3)
             scale = float(position(1.0))

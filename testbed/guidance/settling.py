@@ -4,7 +4,6 @@ spectrum of the bus rate over the window after it (docs/theory/slew-and-settle.m
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import welch
 
 # Welch's segments span half the window (50 % overlap: three segments averaged), so that the
 # frequency resolution is 2 / window while the estimate still averages.
@@ -44,6 +43,8 @@ def rate_spectrum(time, omega, after: float) -> tuple[np.ndarray, np.ndarray]:
     if len(t) < MIN_SAMPLES:
         raise ValueError(f"{len(t)} trace samples after the slew's end at {after:g} s; the spectrum needs "
                          f"at least {MIN_SAMPLES}")
+    from scipy.signal import welch  # here: importing scipy.signal costs a run that asks for no spectrum ~0.5 s
+
     step = float(np.median(np.diff(t)))
     grid = t[0] + step * np.arange(int(np.floor((t[-1] - t[0]) / step + 1e-9)) + 1)
     samples = np.column_stack([np.interp(grid, time, omega[:, j]) for j in range(omega.shape[1])])
