@@ -17,6 +17,7 @@ from typing import Callable
 import numpy as np
 
 from testbed import pipeline
+from testbed.appendages.params import has_appendages
 from testbed.systems.registry import is_free_flying
 from testbed.errors import InputError, described, error_line
 from testbed.interrupts import from_a_signal
@@ -190,10 +191,14 @@ def momentum_drift_rel(run) -> float:
     return float(run.reduced(MOMENTUM_DRIFT) / run.momentum_scale)
 
 
-@metric("energy_drift_rel", applies=lambda s: s.stages["allocator"][0] == "none" and s.environment is None,
-        uses=(ENERGY_DRIFT, ENERGY_FIRST))
+def _kinetic_energy_conserved(scenario) -> bool:
+    """No actuator works, no environment, and no appendage's spring or damper trades energy."""
+    return scenario.stages["allocator"][0] == "none" and scenario.environment is None and not has_appendages(scenario)
+
+
+@metric("energy_drift_rel", applies=_kinetic_energy_conserved, uses=(ENERGY_DRIFT, ENERGY_FIRST))
 def energy_drift_rel(run) -> float:
-    """max |T(t) - T(0)| / T(0) of the kinetic energy (no actuator does work)."""
+    """max |T(t) - T(0)| / T(0) of the kinetic energy (no actuator does work, no appendage)."""
     return float(run.reduced(ENERGY_DRIFT) / max(abs(run.reduced(ENERGY_FIRST)[0]), 1e-300))
 
 

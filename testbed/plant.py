@@ -168,6 +168,13 @@ class Plant:
         self.place_appendages()
         mujoco.mj_forward(self.model, self.data)
 
+    def step_rates(self) -> dict[str, float]:
+        """Rates [rad/s] whose angle a step must resolve, known before the run (testbed.accuracy.
+        step_size): the fastest pole of the joints' springs and dampers, when the model has appendages."""
+        if self.appendages is None:
+            return {}
+        return {"fastest appendage mode": self.appendages.fastest_mode(self.model)}
+
     def place_appendages(self) -> None:
         """Deflect the panels and slosh masses as the scenario starts them (before mj_forward)."""
         if self.appendages is not None and self.appendage_start:

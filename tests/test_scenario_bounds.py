@@ -55,6 +55,12 @@ PINNED = {
         "gimbal_rate_error_rel": {"max": 0.01},
         "max_omega_error_rad_s": {"max": 1e-6},
     },
+    "flexible_panels_free_decay": {
+        "momentum_drift_rel": {"max": 1e-9},
+        "panel_frequency_error_rel": {"max": 1e-4},
+        "panel_damping_ratio_error_rel": {"max": 2e-3},
+        "panel_linearised_frequency_error_rel": {"max": 1e-4},
+    },
     "gyrostat_free": {
         "max_omega_error_rad_s": {"max": 1.0e-8},
         "momentum_drift_rel": {"max": 1.0e-10},
@@ -314,6 +320,11 @@ PINNED = {
         "torque_error_rel": {"max": 1e-9},
         "momentum_drift_rel": {"max": 1e-9},
         "peak_gimbal_rate_deg_s": {"max": 8},
+    },
+    "slosh_free_decay": {
+        "momentum_drift_rel": {"max": 1e-9},
+        "slosh_frequency_error_rel": {"max": 1e-4},
+        "slosh_damping_ratio_error_rel": {"max": 2e-3},
     },
     "torque_free_skylab": {
         "max_omega_error_rad_s": {"max": 1e-9},

@@ -53,6 +53,7 @@ def add_appendages(spec: mujoco.MjSpec, bus, params: AppendagesParams) -> None:
         hinge, slide = mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE
         if slosh.model == "spring_mass":
             body.mass = slosh.mass_kg
+            body.ipos = [0.0, 0.0, 0.0]  # MjSpec leaves it unset
             body.inertia = [2.0 / 3.0 * slosh.mass_kg * SPRING_MASS_SIZE_M ** 2] * 3  # a uniform cube
             for axis, suffix in zip(slosh.slide_axes, SLOSH_JOINT_SUFFIXES):
                 body.add_joint(name=slosh_name(k) + suffix, type=slide, axis=axis,

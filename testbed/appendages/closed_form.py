@@ -19,7 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from testbed.appendages.params import WingParams
+from testbed.appendages.build import SPRING_MASS_SIZE_M
+from testbed.appendages.params import SloshParams, WingParams
 
 PLANAR_TOLERANCE = 1e-9  # relative: how far from planar a configuration may be for these forms to hold
 
@@ -122,6 +123,38 @@ def clamped_modes(rigid: RigidPart, wings: list[WingParams]) -> Modes:
     panels = levers[1:, :, 1:]
     mass = np.diag(inertias[1:]) + np.einsum("b,bki,bkj->ij", masses[1:], panels, panels)
     return _modes(mass, stiffness[1:, 1:], damping[1:, 1:])
+
+
+def _cross_matrix(v) -> np.ndarray:
+    """[v]x: [v]x w = v x w."""
+    x, y, z = v
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def spring_mass_modes(rigid: RigidPart, slosh: list[SloshParams]) -> Modes:
+    """The elastic modes of spring-mass slosh models on the free rigid bus, in 3D (eq. F7): the
+    coordinates are the bus's small rotation phi (3) and each slide's offset, the translation
+    eliminated by the fixed CoM; each mass is a cube (build.py) that turns with the bus."""
+    n = 3 + sum(len(s.slide_axes) for s in slosh)
+    rotation = np.zeros((n, n))
+    rotation[:3, :3] = rigid.inertia
+    masses, levers = [rigid.mass], [np.hstack([-_cross_matrix(rigid.com), np.zeros((3, n - 3))])]
+    stiffness, damping = np.zeros((n, n)), np.zeros((n, n))
+    column = 3
+    for model in slosh:
+        lever = np.zeros((3, n))
+        lever[:, :3] = -_cross_matrix(model.position_m)
+        rotation[:3, :3] += np.eye(3) * 2.0 / 3.0 * model.mass_kg * SPRING_MASS_SIZE_M ** 2
+        for axis in model.slide_axes:
+            lever[:, column] = axis
+            stiffness[column, column], damping[column, column] = model.stiffness(), model.slide_damping()
+            column += 1
+        masses.append(model.mass_kg)
+        levers.append(lever)
+    masses, levers = np.array(masses), np.array(levers)
+    momentum = np.einsum("b,bij->ij", masses, levers)
+    mass = rotation + np.einsum("b,bki,bkj->ij", masses, levers, levers) - momentum.T @ momentum / masses.sum()
+    return _modes(mass, stiffness, damping)
 
 
 def two_body_frequency(rigid_inertia: float, rigid_mass: float, hinge_lever, panel_inertia: float,

@@ -65,9 +65,72 @@ class AppendageJoints:
                 signals[key] = self.qpos[addresses]
         return signals
 
+    def fastest_mode(self, model: mujoco.MjModel) -> float:
+        """The fastest pole |s| [rad/s] of the joints' springs and dampers at rest (qpos0), every
+        other joint and the bus free: the largest eigenvalue modulus of [[0, 1], [-M^-1 K, -M^-1 C]],
+        K and C the joints' stiffness and damping on their dofs. What one explicit step must resolve
+        (testbed.accuracy.step_size): a stiff spring's frequency, or a heavy damper's rate c / J."""
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        mass = np.zeros((model.nv, model.nv))
+        mujoco.mj_fullM(model, data, mass)
+        stiffness = np.zeros(model.nv)
+        for joint in np.flatnonzero(model.jnt_stiffness):
+            if int(model.jnt_type[joint]) in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+                stiffness[model.jnt_dofadr[joint]] = model.jnt_stiffness[joint]
+        solved = np.linalg.solve(mass, np.hstack([np.diag(stiffness), np.diag(model.dof_damping)]))
+        n = model.nv
+        system = np.block([[np.zeros((n, n)), np.eye(n)], [-solved[:, :n], -solved[:, n:]]])
+        return float(np.max(np.abs(np.linalg.eigvals(system))))
+
     def hinge_signals(self) -> dict[str, tuple[str, int]]:
         """Hinge joint name -> (recorded signal, column) for the 3D view (recording.scene.moving_parts)."""
         return {name: (f"truth/{PANEL_SIGNAL}", i) for i, name in enumerate(self.panel_names)}
+
+
+def free_spinner_axis(model: mujoco.MjModel, body: int) -> np.ndarray | None:
+    """The hinge axis (the body's frame) of `body` when it spins
+    freely on one hinge: no spring, damper, friction nor servo (a biased actuator) on it, as an
+    unpowered reaction wheel; None otherwise (a gimbal or a servoed rotor is held)."""
+    if model.body_jntnum[body] != 1:
+        return None
+    joint = model.body_jntadr[body]
+    dof = model.jnt_dofadr[joint]
+    if int(model.jnt_type[joint]) != mujoco.mjtJoint.mjJNT_HINGE or model.jnt_stiffness[joint] \
+            or model.dof_damping[dof] or model.dof_frictionloss[dof]:
+        return None
+    on_joint = (model.actuator_trntype == mujoco.mjtTrn.mjTRN_JOINT) & (model.actuator_trnid[:, 0] == joint)
+    if np.any(model.actuator_biastype[on_joint] != mujoco.mjtBias.mjBIAS_NONE):
+        return None
+    return model.jnt_axis[joint]
+
+
+def rigid_mass(model: mujoco.MjModel, bus: int) -> tuple[float, np.ndarray, np.ndarray]:
+    """(mass [kg], CoM [m], inertia about the CoM [kg m^2]) of every body but the appendages
+    at qpos0, in the frame of body `bus`: the rigid part the closed forms hang the appendages on
+    (testbed.appendages.closed_form.RigidPart). Gimbals and servoed rotors count as locked; a
+    body that spins freely on its hinge (free_spinner_axis: an unpowered wheel, its CoM on the
+    axis) keeps its spin out of the bus's turning, so it adds J - (J a)(J a)^T / (a^T J a)
+    about its CoM (a its axis), Jt (1 - a a^T) for an axisymmetric wheel."""
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    rot_bus, pos_bus = data.xmat[bus].reshape(3, 3), data.xpos[bus]
+    bodies = [b for b in range(1, model.nbody) if not is_appendage(model, b)]
+    masses = model.body_mass[bodies]
+    coms = (data.xipos[bodies] - pos_bus) @ rot_bus
+    com = masses @ coms / masses.sum()
+    inertia = np.zeros((3, 3))
+    for body, mass, position in zip(bodies, masses, coms):
+        principal = rot_bus.T @ data.ximat[body].reshape(3, 3)
+        own = principal @ np.diag(model.body_inertia[body]) @ principal.T
+        axis = free_spinner_axis(model, body)
+        if axis is not None:
+            spin = rot_bus.T @ data.xmat[body].reshape(3, 3) @ axis
+            turned = own @ spin
+            own = own - np.outer(turned, turned) / (spin @ turned)
+        r = position - com
+        inertia += own + mass * (r @ r * np.eye(3) - np.outer(r, r))
+    return float(masses.sum()), com, inertia
 
 
 def locked_appendage_mass(model: mujoco.MjModel, bus: int) -> list[tuple[float, np.ndarray, np.ndarray]]:

@@ -4,7 +4,8 @@ Linearised: `mjd_transitionFD` gives the step map's Jacobian A (MuJoCo's tangent
 rotation as 3 numbers); each eigenvalue z of A is exp(s dt) of a continuous-time pole s, so
 s = log(z) / dt, w_n = |s| and zeta = -Re s / |s|. MuJoCo differentiates no RK4 step: the map
 is a semi-implicit Euler step of LINEARISATION_STEP_S, whose z = exp(+-i phi) has
-phi = 2 asin(w dt / 2): the frequency read is w (1 + (w dt)^2 / 24), within 1e-6 below 50 rad/s. Free decay: successive peaks of a decaying
+phi = 2 asin(w dt / 2): the frequency read is w (1 + (w dt)^2 / 24), within 1e-6 below 50 rad/s;
+its implicit damping moves a damped pole by O(c dt / m) (2e-5 at zeta = 0.04, w = 2 rad/s). Free decay: successive peaks of a decaying
 oscillation give the damped period and the logarithmic decrement delta; zeta = delta /
 sqrt(4 pi^2 + delta^2) and w_n = w_d / sqrt(1 - zeta^2) (docs/theory/flexible.md, eq. F9).
 """

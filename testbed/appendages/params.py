@@ -25,6 +25,24 @@ MAX_PANELS, MAX_WINGS, MAX_SLOSH = 8, 8, 8
 NORMAL_TOLERANCE = 1e-3
 
 
+HOST_SYSTEMS: set[str] = set()  # the systems whose `model:` block has an `appendages` field
+
+
+def hosts_appendages(system: str) -> None:
+    """Declare that system `system`'s params have the `appendages: AppendagesParams | None` field."""
+    HOST_SYSTEMS.add(system)
+
+
+def carries_appendages(system: str) -> bool:
+    return system in HOST_SYSTEMS
+
+
+def has_appendages(scenario) -> bool:
+    """Whether `scenario`'s spacecraft has panels or slosh masses: springs store energy, so its
+    kinetic energy alone is no conserved quantity."""
+    return carries_appendages(scenario.system) and scenario.model.appendages is not None
+
+
 def orthonormal(first, second, path: str, second_name: str) -> tuple[np.ndarray, np.ndarray]:
     """The unit `first` and the unit `second` made exactly normal to it (Gram-Schmidt), after
     checking they are normal to within NORMAL_TOLERANCE; `path` names `second` in the error."""

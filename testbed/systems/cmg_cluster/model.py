@@ -15,7 +15,7 @@ import mujoco
 import numpy as np
 
 from testbed.appendages.build import add_appendages, initial_positions
-from testbed.appendages.params import AppendagesParams
+from testbed.appendages.params import AppendagesParams, hosts_appendages
 from testbed.errors import InputError
 from testbed.math.validation import check_principal_inertia
 from testbed.scenario.schema import join, param
@@ -81,6 +81,9 @@ class CmgClusterParams(CmgUnitsParams):
             if not getattr(self, name):  # none given: every rotor balanced
                 setattr(self, name, [0.0] * count)
         super().validate(path)
+
+
+hosts_appendages("cmg_cluster")  # its `appendages` field
 
 
 def build(params: CmgClusterParams, dt: float, integrator: str = "RK4") -> mujoco.MjModel:

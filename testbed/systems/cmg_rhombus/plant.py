@@ -190,8 +190,8 @@ class CmgPlant(Plant):
     def step_rates(self) -> dict[str, float]:
         """Rates [rad/s] whose angle a step must resolve, known before the run: the rotor speed of
         unbalanced rotors (the jitter's wrench turns with the rotor angle; a balanced rotor's angle
-        enters no equation) and the gimbal-rate limit, when set."""
-        rates = {}
+        enters no equation), the gimbal-rate limit, when set, and the appendages' (Plant's)."""
+        rates = super().step_rates()
         if self.imbalance is not None:
             rates["rotor speed of the unbalanced rotors"] = float(np.max(np.abs(self.bus.rotor_rates(self.data))))
         if self.rate_limit is not None:

@@ -13,7 +13,7 @@ import mujoco
 import numpy as np
 
 from testbed.appendages.build import add_appendages
-from testbed.appendages.params import AppendagesParams
+from testbed.appendages.params import AppendagesParams, hosts_appendages
 from testbed.errors import InputError
 from testbed.math.validation import MASS_RANGE_KG, check_in_range, check_inertia_tensor, check_unit_vector
 from testbed.scenario.schema import join, param
@@ -148,6 +148,9 @@ class ReactionWheelsParams(WheelsParams):
         check_inertia_tensor(self.inertia_tensor_kg_m2, join(path, "inertia_tensor_kg_m2"))
         check_in_range(join(path, "mass_kg"), self.mass_kg, MASS_RANGE_KG, "kg")
         super().validate(path)
+
+
+hosts_appendages("reaction_wheels")  # its `appendages` field
 
 
 def wheel_tensor(axis, spin: float, transverse: float) -> np.ndarray:
