@@ -21,6 +21,7 @@ from testbed.appendages.params import has_appendages
 from testbed.systems.registry import is_free_flying
 from testbed.errors import InputError, described, error_line
 from testbed.interrupts import from_a_signal
+from testbed.recording import spectra
 from testbed.recording.reductions import First, Last, MaxDistanceFromFirst, MaxNorm
 from testbed.registry import Registry
 
@@ -82,8 +83,8 @@ def available(scenario) -> list[str]:
 
 
 def kept_signals(scenario) -> set[str] | None:
-    """The signal keys whose history the metrics of `scenario` read (None: every signal)."""
-    keys: set[str] = set()
+    """The signal keys whose history the metrics and spectra of `scenario` read (None: every signal)."""
+    keys: set[str] = {key for s in spectra.available(scenario) for key in s.uses}
     for name in available(scenario):
         uses = METRICS[name].used_by(scenario)
         if uses is None:

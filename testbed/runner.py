@@ -20,7 +20,7 @@ from threadpoolctl import ThreadpoolController
 from testbed import metrics
 from testbed.accuracy import guard as accuracy_guard
 from testbed.accuracy.step_size import refuse_unresolved_step
-from testbed.recording import trace
+from testbed.recording import spectra, trace
 from testbed.references import registry as references_registry
 from testbed.systems import registry as systems_registry
 from testbed.environment import surroundings
@@ -323,6 +323,7 @@ class RunInProgress:
             result.wall_s = time.perf_counter() - self.wall0
             stages = {slot: {"type": name, **params_dict(p)} for slot, (name, p) in scenario.stages.items()}
             stages |= {slot: {"type": name} for slot, name in self.stage_types.items()}
+            self.writer.write_spectra(spectra.compute_all(data))
             self.writer.finish(result.as_json() | {"stages": stages})
         result.wall_s = time.perf_counter() - self.wall0
         return result

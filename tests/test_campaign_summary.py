@@ -17,7 +17,7 @@ from scipy import stats
 
 from campaign_cases import spinup
 from testbed.campaign.plots import TIMELINE, axis_scale
-from testbed.campaign.stats import check_margin, metric_spread, pass_rate, worst_cases
+from testbed.campaign.stats import by_grid_point, check_margin, metric_spread, pass_rate, report, summary, worst_cases
 from testbed.cli import main
 
 # The Lebedev one-gyro spin-up on a rigid bus, 20 s (the observer alone: the bus tumbles freely
@@ -27,6 +27,22 @@ CAMPAIGN = spinup("summary_campaign", {"final_omega_rad_s": {"max": 0.0062}}, no
     "sweep": {"seed": 3, "samples": 6, "grid": {"sim.integrator": ["RK4", "Euler"]}, "dispersions": {
         "initial.omega_deg_s": {"uniform": [-0.05, 0.05], "offset": True},
         "pipeline.sensor.axis": {"misalignment_deg": 1.0}}}}
+
+
+def test_checked_metrics_by_grid_point_are_the_means_of_its_cases():
+    """Two grid fields, two samples a point: each point's mean of each checked metric over its
+    finite values (a NaN and a missing value skipped, a point with none gives None), in case order;
+    the terminal lists the points, an unchecked metric left out."""
+    rows = [{"case": i, "k": k, "c": c, "passed": True, "status": "ok", "error": "", "t_s": t, "x": 1.0}
+            for i, (k, c, t) in enumerate([(1, 5, 2.0), (1, 5, 4.0), (2, 5, float("nan")), (2, 5, 7.0),
+                                           (1, 9, None), (1, 9, float("nan"))])]
+    points = by_grid_point(rows, ["k", "c"], ["t_s"])
+    assert [(p["values"], p["cases"], p["means"]["t_s"]) for p in points] == [
+        ({"k": "1", "c": "5"}, 2, 3.0), ({"k": "2", "c": "5"}, 2, 7.0), ({"k": "1", "c": "9"}, 2, None)]
+    limits = {row["case"]: {"t_s": {"max": 10.0}} for row in rows}
+    lines = report(summary("g", rows, ["t_s", "x"], limits, lambda case: f"rerun {case}", [], ["k", "c"]))
+    table = lines[lines.index("checked metrics by grid point (mean over its cases):") + 1:][:4]
+    assert [line.split() for line in table] == [["k", "c", "t_s"], ["1", "5", "3"], ["2", "5", "7"], ["1", "9", "-"]]
 
 
 def test_pass_rate_interval_is_clopper_pearson():

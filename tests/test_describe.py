@@ -41,13 +41,19 @@ def test_the_parameters_page_does_not_depend_on_what_was_imported_first():
     assert done.stdout == DOCS_PAGE.read_text()
 
 def _keys(params_cls, path=""):
-    """Every field of a schema, a nested schema's fields as dotted keys (schema.describe)."""
+    """Every field of a schema, a nested schema's fields as dotted keys, an optional one's after
+    its own key (schema.describe)."""
     hints = typing.get_type_hints(params_cls)
     keys = []
     for f in dataclasses.fields(params_cls):
         if f.init:
-            nested = dataclasses.is_dataclass(hints[f.name])
-            keys += _keys(hints[f.name], f"{path}{f.name}.") if nested else [path + f.name]
+            options = [t for t in typing.get_args(hints[f.name]) if t is not type(None)]
+            if len(options) == 1 and dataclasses.is_dataclass(options[0]):  # an optional block
+                keys += [path + f.name] + _keys(options[0], f"{path}{f.name}.")
+            elif dataclasses.is_dataclass(hints[f.name]):
+                keys += _keys(hints[f.name], f"{path}{f.name}.")
+            else:
+                keys.append(path + f.name)
     return keys
 
 

@@ -21,6 +21,22 @@ SCENARIOS = ROOT / "scenarios"
 PINNED_METRICS = Path(__file__).with_name("data") / "pinned_metrics.json"
 
 PINNED = {
+    "agile_slew_flexible": {
+        "final_attitude_error_deg": {"max": 0.01},
+        "momentum_drift_rel": {"max": 1e-9},
+        "jitter_peak_hz": {"min": 0.215, "max": 0.223},
+        "settling_time_rate_s": {"min": 20, "max": 35},
+    },
+    "agile_slew_flexible_campaign": {
+        "final_attitude_error_deg": {"max": 0.01},
+        "momentum_drift_rel": {"max": 1e-9},
+        "settling_time_rate_s": {"max": 60},
+    },
+    "agile_slew_flexible_shaped": {
+        "final_attitude_error_deg": {"max": 0.01},
+        "momentum_drift_rel": {"max": 1e-9},
+        "settling_time_rate_s": {"max": 10},
+    },
     "akor_sweep": {
         "akor_eta_rel_err": {"max": 0.035},
         "akor_eta_over_eta_max": {"max": 1.0},

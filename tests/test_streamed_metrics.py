@@ -31,6 +31,9 @@ RTOL = 1e-12
 # Shorter runs where the shipped one is long; the Lebedev estimator's start-up phase shortened
 # with them, so that every phase (start-up, closing, the tails) is in the run.
 SHORT = {
+    "agile_slew_flexible": ["sim.duration_s=50"],           # past the slew's end: the settling window
+    "agile_slew_flexible_campaign": ["sim.duration_s=50"],
+    "agile_slew_flexible_shaped": ["sim.duration_s=50"],
     "akor_sweep": ["sim.duration_s=70"],
     "cmg_open_loop": ["sim.duration_s=20"],
     "gyrostat_free": ["sim.duration_s=60"],

@@ -86,10 +86,28 @@ def pass_rate_by(rows: list[dict], column: str) -> dict[str, dict]:
     return {value: pass_rate(sum(passed), len(passed)) for value, passed in groups.items()}
 
 
+def by_grid_point(rows: list[dict], grid: list[str], metrics: list[str]) -> list[dict]:
+    """One entry per point of the grid (columns `grid`), in case order: its values, its cases, and
+    each of `metrics` averaged over its cases where finite (None where none is): how a checked
+    figure moves with the swept parameters."""
+    points: dict[tuple, list[dict]] = {}
+    for row in rows:
+        points.setdefault(tuple(str(row.get(c)) for c in grid), []).append(row)
+    table = []
+    for key, members in points.items():
+        means = {}
+        for m in metrics:
+            finite = [v for v in (_number(r.get(m)) for r in members) if v is not None and math.isfinite(v)]
+            means[m] = sum(finite) / len(finite) if finite else None
+        table.append({"values": dict(zip(grid, key)), "cases": len(members), "means": means})
+    return table
+
+
 def summary(name: str, rows: list[dict], metric_names: list[str], limits: dict[int, dict], rerun,
-            groups=()) -> dict:
+            groups=(), grid=()) -> dict:
     """summary.json of a finished campaign (module doc); `groups`: the columns (grid fields and
-    choices) whose every value gets a pass rate of its own."""
+    choices) whose every value gets a pass rate of its own; `grid`: the grid's columns, whose
+    every point gets the mean of each checked metric (`by_grid_point`)."""
     statuses: dict[str, int] = {}
     for row in rows:
         statuses[row["status"]] = statuses.get(row["status"], 0) + 1
@@ -97,7 +115,9 @@ def summary(name: str, rows: list[dict], metric_names: list[str], limits: dict[i
             "pass_rate": pass_rate(sum(bool(r["passed"]) for r in rows), len(rows)),
             "pass_rate_by": {column: pass_rate_by(rows, column) for column in groups},
             "metrics": {m: metric_spread(_number(r.get(m)) for r in rows) for m in metric_names},
-            "worst": worst_cases(rows, limits, rerun)}
+            "worst": worst_cases(rows, limits, rerun),
+            "by_grid_point": by_grid_point(rows, list(grid), list(dict.fromkeys(
+                m for checks in limits.values() for m in checks if m in metric_names))) if grid else []}
 
 
 def rerun_command(source: str, overrides: list[str], out: str):
@@ -125,6 +145,15 @@ def report(summary_: dict) -> list[str]:
             lines.append(f"{name:36s} {cells}{extra}")
         else:
             lines.append(f"{name:36s} {'no finite value':>11s}")
+    points = summary_.get("by_grid_point") or []
+    if points:
+        lines.append("checked metrics by grid point (mean over its cases):")
+        columns = [*points[0]["values"], *points[0]["means"]]
+        widths = [max(12, len(c)) for c in columns]
+        lines.append("  " + " ".join(f"{c:>{w}s}" for c, w in zip(columns, widths)))
+        for point in points:
+            cells = [*point["values"].values(), *("-" if v is None else f"{v:.4g}" for v in point["means"].values())]
+            lines.append("  " + " ".join(f"{c:>{w}s}" for c, w in zip(cells, widths)))
     lines.append("worst cases:")
     for entry in summary_["worst"]:
         lines.append(f"  case {entry['case']}: {entry['status']}{'' if entry['passed'] else ', failed'}: {entry['why']}")

@@ -27,6 +27,13 @@ def summary_markdown(summary: dict) -> str:
                             [[name, unit_text(name), *(f"{spread[k]:.4g}" for k in SPREAD), spread["not_finite"]]
                              if spread["cases"] else [name, unit_text(name), *["-"] * len(SPREAD), spread["not_finite"]]
                              for name, spread in summary["metrics"].items()]) + [""]
+    points = summary.get("by_grid_point") or []
+    if points:
+        lines += ["## checked metrics by grid point (mean over its cases)", ""]
+        lines += markdown_table([*points[0]["values"], "cases", *(f"{m} [{unit_text(m)}]" for m in points[0]["means"])],
+                                [[*p["values"].values(), p["cases"], *("-" if v is None else f"{v:.4g}"
+                                                                       for v in p["means"].values())]
+                                 for p in points]) + [""]
     if summary["worst"]:
         lines += ["## worst cases", ""]
         lines += markdown_table(["case", "status", "why", "rerun"],

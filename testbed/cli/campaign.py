@@ -181,7 +181,8 @@ def summarise(name: str, data: dict, rows: list[dict], cases, out: Path, args) -
     metric_names = list(dict.fromkeys(m for case in cases for m in case.prepared["metrics"]))
     parameters = list(dict.fromkeys(k for case in cases for k in [*flat(case.values), *case.derived]))
     limits = {case.index: case.prepared["checks"] for case in cases}
-    result = summary(name, rows, metric_names, limits, rerun_command(args.scenario, args.set, str(out)), groups)
+    grid = [key for key in spec.grid if key in rows[0]]
+    result = summary(name, rows, metric_names, limits, rerun_command(args.scenario, args.set, str(out)), groups, grid)
     result["parameters"] = parameters
     summary_json, summary_rrd = summary_files(out)
     summary_json.parent.mkdir(exist_ok=True)  # apart from the cases' caseNNNN.rrd

@@ -28,6 +28,10 @@ by tests/test_guidance.py:
 Outside [0, T] every ψi continues at its boundary rate (ψi'' = 0): after T that is a
 steady spin at ω_T about b3 (rest for ω_T = 0).
 
+A rest-to-rest program may take another angle profile than the cubic, and an input shaper
+(`profile`: testbed.guidance.rest_to_rest_profiles): ψ(t) = ψ0 (1 - g(t)) with g the profile's
+fraction, which comes to rest at its own end (T plus the shaper's duration).
+
 Pure numpy; quaternions (w, x, y, z), Hamilton product, body-to-world; rates in the body frame.
 """
 
@@ -38,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from testbed.errors import InputError
+from testbed.guidance.rest_to_rest_profiles import RestToRestProfile
 from testbed.math.validation import check_unit_vector, inertia_matrix, positive_number, unit_quaternion, vector3
 from testbed.math.quaternion import quat_conj, quat_from_axis_angle, quat_mul, quat_rotate
 
@@ -83,14 +88,16 @@ class ProgramTrajectory:
     """Λ*(t) = q_ref ∘ Λ1∘Λ2∘Λ3 with constant axes (rows of `axes`) and cubic angles (`coeffs`).
 
     q_ref: target attitude Λ_T; axes: (3, 3) orthonormal b1, b2, b3 in the target body frame;
-    coeffs: (3, 4) a0..a3 of ψ1..ψ3 (eq. 11); duration: T [s]. Build it with `from_boundary`
-    or `eigen_axis_slew`; the constructor only validates.
+    coeffs: (3, 4) a0..a3 of ψ1..ψ3 (eq. 11); duration: T [s]; profile: for a rest-to-rest
+    program, the angle profile that replaces the cubic (ψ = a0 (1 - g(t))), None for the cubic.
+    Build it with `from_boundary` or `eigen_axis_slew`; the constructor only validates.
     """
 
     q_ref: np.ndarray
     axes: np.ndarray
     coeffs: np.ndarray
     duration: float
+    profile: RestToRestProfile | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "duration", positive_number("slew.duration_s", self.duration))
@@ -105,6 +112,9 @@ class ProgramTrajectory:
         if coeffs.shape != (3, 4) or not np.all(np.isfinite(coeffs)):
             raise InputError("slew.coeffs", "must be a 3x4 array of finite cubic coefficients")
         object.__setattr__(self, "coeffs", coeffs)
+        if self.profile is not None and np.any(coeffs[:, 1]):
+            raise InputError("slew.profile", "a profile other than the cubic needs a rest-to-rest slew "
+                             "(zero initial and final rates)")
 
     # ---- construction -------------------------------------------------------------------
 
@@ -139,21 +149,34 @@ class ProgramTrajectory:
         return cls(qT, axes, coeffs, T)
 
     @classmethod
-    def eigen_axis_slew(cls, q0, axis, angle, T) -> "ProgramTrajectory":
-        """Rest-to-rest slew by `angle` [rad, |angle| <= π] about the unit body `axis`, in time T."""
+    def eigen_axis_slew(cls, q0, axis, angle, T, profile: RestToRestProfile | None = None) -> "ProgramTrajectory":
+        """Rest-to-rest slew by `angle` [rad, |angle| <= π] about the unit body `axis`, in time T,
+        along the cubic or along `profile` (which then sets the duration)."""
         axis = check_unit_vector(axis, "slew.axis")
         angle = float(angle)
         if not np.isfinite(angle) or abs(angle) > np.pi:
             raise InputError("slew.angle_rad", f"must be finite with |angle| <= pi, got {angle!r}")
         q0 = unit_quaternion("slew.q_initial", q0)
         qT = quat_mul(q0, quat_from_axis_angle(axis / np.linalg.norm(axis), angle))
-        return cls.from_boundary(q0, np.zeros(3), qT, np.zeros(3), T)
+        cubic = cls.from_boundary(q0, np.zeros(3), qT, np.zeros(3), T)
+        if profile is None:
+            return cubic
+        return cls(cubic.q_ref, cubic.axes, cubic.coeffs, profile.duration, profile)
+
+    @property
+    def end(self) -> float:
+        """When the program comes to its final state [s]: T, or the shaped profile's end."""
+        return self.duration if self.profile is None else self.profile.end
 
     # ---- evaluation ---------------------------------------------------------------------
 
     def angles(self, t):
-        """ψ(t), ψ'(t), ψ''(t) as three (3,) arrays (eq. 11; linear outside [0, T])."""
+        """ψ(t), ψ'(t), ψ''(t) as three (3,) arrays (eq. 11; linear outside [0, T]); with a
+        profile, ψ0 (1 - g), -ψ0 g', -ψ0 g''."""
         a = self.coeffs
+        if self.profile is not None:
+            g, dg, ddg = self.profile(float(t))
+            return a[:, 0] * (1.0 - g), -a[:, 0] * dg, -a[:, 0] * ddg
         T = self.duration
         tc = min(max(float(t), 0.0), T)
         psi = a[:, 0] + tc * (a[:, 1] + tc * (a[:, 2] + tc * a[:, 3]))

@@ -3,7 +3,10 @@
 The program Λ*(t) goes from the scenario's initial attitude q0 to qT = q0 ∘ (axis, angle)
 (a rotation about a body axis) in duration_s, starting at start_s, with the boundary body
 rates initial_rate_deg_s and final_rate_deg_s (eq. 3, 10-13; rest to rest by default: the
-eigen-axis slew). The wanted torque is the program torque M* (eq. 9) plus quaternion PD
+eigen-axis slew). A rest-to-rest slew may follow a smooth `profile` (versine, s-curve) and an
+input `shaper` (ZV, ZVD at given modes), which lengthens it by the shaper's duration
+(testbed.guidance.rest_to_rest_profiles, testbed.shaping.shapers); `settle_pointing_deg` and
+`settle_rate_deg_s` ask for the settling metrics (testbed.guidance.settling_metrics). The wanted torque is the program torque M* (eq. 9) plus quaternion PD
 feedback with gyroscopic compensation (testbed.guidance.tracking_law), designed on the
 locked system inertia ctx.inertia. Before start_s the program holds q0 (rest start);
 after the slew it holds qT (or spins on at the final rate).
@@ -11,23 +14,27 @@ after the slew it holds qT (or spins on at the final rate).
 Records `law/torque`, the program `program_quat`, `program_omega`, `program_torque`, and the
 attitude error as a rotation vector `attitude_error` [rad, body axes] and its angle `error_angle`;
 declares the slew's target at the run's end (`target_quat`: q0 ∘ (axis, angle), from the
-scenario's numbers) and the program attitude at the run's last sample (`final_program_quat`).
+scenario's numbers), the program attitude at the run's last sample (`final_program_quat`) and
+when the program comes to rest (`slew_end_s`: start_s + T + the shaper's duration).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
 from testbed.errors import InputError
 from testbed.guidance.program_trajectory import ProgramTrajectory
+from testbed.guidance.rest_to_rest_profiles import NO_SHAPER, RestToRestProfile
 from testbed.math.cross import cross3
 from testbed.guidance.tracking_law import TrackingLaw
 from testbed.math.validation import check_unit_vector
 from testbed.pipeline import require_attitude_estimate, require_free_body, stage
 from testbed.math.quaternion import quat_conj, quat_from_axis_angle, quat_mul, rotation_vector
 from testbed.scenario.schema import join, param
+from testbed.shaping.shapers import shaper_for
 
 ZERO3 = [0.0, 0.0, 0.0]
 # Library field names (testbed.guidance) -> this stage's scenario keys, for error messages.
@@ -36,6 +43,16 @@ _FIELDS = {"slew.duration_s": "duration_s", "slew.axis": "axis", "slew.angle_rad
            "control.natural_frequency_rad_s": "natural_frequency_rad_s",
            "control.damping_ratio": "damping_ratio"}
 LAW_PATH = "pipeline.law"
+
+
+@dataclass(kw_only=True)
+class ShaperParams:
+    type: Literal["zv", "zvd"] = param(doc="zero vibration (2 impulses) or zero vibration and derivative (3)")
+    frequency_hz: list[float] = param(doc="the modes' natural frequencies (one shaper each, convolved)")
+    damping_ratio: list[float] = param(doc="the modes' damping ratios, one per frequency, in [0, 1)")
+
+    def validate(self, path: str) -> None:
+        self.shaper = shaper_for(self.type, self.frequency_hz, self.damping_ratio, path)
 
 
 @dataclass(kw_only=True)
@@ -48,9 +65,35 @@ class SlewParams:
     final_rate_deg_s: list[float] = param(ZERO3, length=3, doc="program body rate at start_s + T")
     natural_frequency_rad_s: float = param(0.5, gt=0, doc="tracking-error natural frequency")
     damping_ratio: float = param(0.9, ge=0, doc="tracking-error damping ratio")
+    profile: Literal["cubic", "versine", "s_curve"] = param("cubic", doc="rest-to-rest angle profile "
+                                                              "(docs/theory/slew-and-settle.md)")
+    jerk_fraction: float = param(0.5, gt=0, le=1, doc="s_curve: share of T spent in the four jerk ramps")
+    coast_fraction: float = param(0.0, ge=0, lt=1, doc="s_curve: share of T coasting at the peak rate")
+    shaper: ShaperParams | None = param(None, doc="input shaper of the program (absent: none)")
+    settle_pointing_deg: float | None = param(None, gt=0, doc="pointing bound of the settling metric (absent: "
+                                              "no such metric)")
+    settle_rate_deg_s: float | None = param(None, gt=0, doc="rate-jitter bound of the settling metric (absent: "
+                                            "no such metric)")
 
     def validate(self, path: str) -> None:
         self.axis = list(check_unit_vector(self.axis, join(path, "axis")))
+        if self.jerk_fraction + self.coast_fraction > 1.0:
+            raise InputError(join(path, "coast_fraction"), f"jerk_fraction + coast_fraction must be <= 1, got "
+                             f"{self.jerk_fraction:g} + {self.coast_fraction:g}")
+        if (self.settle_pointing_deg is not None or self.settle_rate_deg_s is not None) and np.any(self.final_rate_deg_s):
+            raise InputError(join(path, "final_rate_deg_s"), "the settling metrics measure a slew to rest: must be 0 "
+                             "with settle_pointing_deg or settle_rate_deg_s")
+        smooth = self.profile != "cubic" or self.shaper is not None
+        if smooth and (np.any(self.initial_rate_deg_s) or np.any(self.final_rate_deg_s)):
+            raise InputError(join(path, "profile" if self.shaper is None else "shaper"),
+                             "smooth profiles and shapers fly rest-to-rest slews: initial and final rates must be 0")
+
+    def rest_to_rest_profile(self) -> RestToRestProfile | None:
+        """The profile and shaper of the scenario (None: the cubic of SEEDS §004, unshaped)."""
+        if self.profile == "cubic" and self.shaper is None:
+            return None
+        return RestToRestProfile(self.profile, self.duration_s, NO_SHAPER if self.shaper is None else self.shaper.shaper,
+                                 self.jerk_fraction, self.coast_fraction)
 
 
 def build_program(params: SlewParams, q0) -> ProgramTrajectory:
@@ -60,7 +103,8 @@ def build_program(params: SlewParams, q0) -> ProgramTrajectory:
         axis, angle = np.asarray(params.axis, float), np.radians(params.angle_deg)
         w0, wT = np.radians(params.initial_rate_deg_s), np.radians(params.final_rate_deg_s)
         if not np.any(w0) and not np.any(wT):
-            return ProgramTrajectory.eigen_axis_slew(q0, axis, angle, params.duration_s)
+            return ProgramTrajectory.eigen_axis_slew(q0, axis, angle, params.duration_s,
+                                                     params.rest_to_rest_profile())
         qT = quat_mul(q0, quat_from_axis_angle(axis, angle))
         return ProgramTrajectory.from_boundary(q0, w0, qT, wT, params.duration_s)
     except InputError as exc:
@@ -97,7 +141,8 @@ class Slew:
         self.inertia = self.tracking.inertia
         # where the run should end: the slew's target, and the program at the last sample
         self.statistics = {"target_quat": slew_target(params, ctx.initial.quat, ctx.end_time),
-                           "final_program_quat": self.program.attitude(ctx.end_time - self.start)}
+                           "final_program_quat": self.program.attitude(ctx.end_time - self.start),
+                           "slew_end_s": self.start + self.program.end}
 
     @classmethod
     def design(cls, params: SlewParams) -> dict:

@@ -84,9 +84,10 @@ def unit_title(key: str, units: dict) -> str:
     return (name if group == "truth" else key) + (f" [{unit}]" if unit else "")
 
 
-def blueprint(keys, t_end: float, scene: dict | None, path=None) -> rrb.Blueprint:
+def blueprint(keys, t_end: float, scene: dict | None, path=None, spectra: dict | None = None) -> rrb.Blueprint:
     """The default layout (module doc): `keys` the signals, each plotted over the whole run
-    [0, t_end] s; `path`: the momentum-space path recorded so far (the view looks at it side-on)."""
+    [0, t_end] s; `path`: the momentum-space path recorded so far (the view looks at it side-on);
+    `spectra`: entity -> title of the spectra written after the run, as bar charts in a tab of their own."""
     units = UNITS | (scene or {}).get("units", {})
     held = frozenset((scene or {}).get("body_momenta", {}))
     tabs: dict[str, list[str]] = {}
@@ -101,6 +102,9 @@ def blueprint(keys, t_end: float, scene: dict | None, path=None) -> rrb.Blueprin
                                            plot_legend=rrb.PlotLegend(rrb.Corner2D.RightTop)) for key in members],
                       grid_columns=2 if len(members) > 2 else 1, name=tab)
              for tab, members in tabs.items()]
+    if spectra:
+        plots.append(rrb.Vertical(*[rrb.BarChartView(origin=f"/{entity}", name=title) for entity, title in spectra.items()],
+                                  name="spectra"))
     result = rrb.TextDocumentView(origin="/run/summary", name=RESULT_TAB)
     right = (rrb.Tabs(*plots, result, active_tab=RESULT_TAB) if plots
              else rrb.TextDocumentView(origin=f"/{RESULT_ENTITY}"))

@@ -36,6 +36,7 @@ from testbed.recording.blueprint import RESULT_ENTITY, UNITS, blueprint, series_
 from testbed.recording.markdown_table import markdown_table
 from testbed.recording.decimation import block_starts, minmax_decimate
 from testbed.recording.rrd_file import FileStream
+from testbed.recording.spectra import ENTITY as SPECTRUM_ENTITY
 from testbed.recording.orbit_drawing import ORBIT_SIGNAL, write_orbit, write_orbit_static
 from testbed.recording.scene_drawing import (MOMENTUM_SPACE, extent, measure_colors, write_marks, write_scene,
                                              write_scene_static)
@@ -71,6 +72,7 @@ class TraceWriter:
         self.units = UNITS | (scene or {}).get("units", {})
         self.keys: dict[str, None] = {}  # every signal written, in order
         self.path_end = None  # the momentum-space path's last point and colour, to join the next chunk's strip
+        self.view_path = None  # the path the layout last looked at (a layout re-sent after the run keeps its view)
         space = (scene or {}).get("momentum_space")
         self.path_radius = 0.003 * extent(space) if space else None  # once: the surfaces hold many points
         self.strips = 0
@@ -112,6 +114,7 @@ class TraceWriter:
             self.keys.update(dict.fromkeys(new))
             space = (self.scene or {}).get("momentum_space")
             path = chunk.signals.get(space["path"]) if space else None
+            self.view_path = path
             rec.send_blueprint(blueprint(self.keys, self.end_time, self.scene, path))
         rec.flush()
 
@@ -149,6 +152,17 @@ class TraceWriter:
         self.rec.send_columns(f"{MOMENTUM_SPACE}/now", indexes=[times],
                               columns=rr.Points3D.columns(positions=path, colors=colors,
                                                           radii=np.full(len(path), 6.0 * radius)))
+
+    def write_spectra(self, spectra: dict) -> None:
+        """Each spectrum computed after the run (name -> (frequencies [Hz], values, title);
+        testbed.recording.spectra) as a bar chart at `spectrum/<name>`, and the layout with their tab."""
+        if not spectra:
+            return
+        for name, (freq, values, _) in spectra.items():
+            widths = np.full(len(freq), freq[1] - freq[0] if len(freq) > 1 else 1.0)
+            self.rec.log(f"{SPECTRUM_ENTITY}/{name}", rr.BarChart(values, abscissa=freq, widths=widths), static=True)
+        titles = {f"{SPECTRUM_ENTITY}/{name}": title for name, (_, _, title) in spectra.items()}
+        self.rec.send_blueprint(blueprint(self.keys, self.end_time, self.scene, self.view_path, titles))
 
     def finish(self, result: dict) -> None:
         """Store the run's result (metrics and checks), replacing the unfinished one."""

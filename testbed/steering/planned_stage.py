@@ -68,14 +68,14 @@ class PlannedAllocator(SteeringAllocator):
             raise InputError(TYPE, "planned steering plans rest-to-rest slews from rest")
         if np.linalg.norm(self.geometry.momentum(self.start)) > 1e-6 * self.geometry.h:
             raise InputError(TYPE, "planned steering needs a start holding no momentum (a zero-momentum set)")
-        steps = program.duration_s / params.plan_step_s
-        if steps > MAX_PLAN_STEPS:
-            raise InputError(join(PATH, "plan_step_s"), f"samples the {program.duration_s:g} s slew in {steps:.3g} "
-                             f"steps, over the limit {MAX_PLAN_STEPS}: a plan step of at least "
-                             f"{program.duration_s / MAX_PLAN_STEPS:.3g} s")
         trajectory = build_program(program, ctx.initial.quat)
+        steps = trajectory.end / params.plan_step_s  # a shaped slew lasts the shaper's time longer
+        if steps > MAX_PLAN_STEPS:
+            raise InputError(join(PATH, "plan_step_s"), f"samples the {trajectory.end:g} s slew in {steps:.3g} "
+                             f"steps, over the limit {MAX_PLAN_STEPS}: a plan step of at least "
+                             f"{trajectory.end / MAX_PLAN_STEPS:.3g} s")
         inertia, h = np.asarray(ctx.inertia, float), self.geometry.h
-        times = np.linspace(0.0, program.duration_s, max(2, int(np.ceil(steps)) + 1))
+        times = np.linspace(0.0, trajectory.end, max(2, int(np.ceil(steps)) + 1))
         wanted = -np.array([inertia @ trajectory.rate(t) for t in times]) / h
         peak = wanted[np.argmax(np.linalg.norm(wanted, axis=-1))]
         if not np.linalg.norm(peak) > SMALLEST_PROGRAM:  # a zero slew: no line, no levels to plan between
