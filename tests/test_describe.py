@@ -48,6 +48,9 @@ def _keys(params_cls, path=""):
         if f.init:
             nested = dataclasses.is_dataclass(hints[f.name])
             keys += _keys(hints[f.name], f"{path}{f.name}.") if nested else [path + f.name]
+            item = typing.get_args(hints[f.name])[0] if typing.get_origin(hints[f.name]) is list else None
+            if item is not None and dataclasses.is_dataclass(item):  # a list of records: each item's fields
+                keys += _keys(item, f"{path}{f.name}[].")
     return keys
 
 
