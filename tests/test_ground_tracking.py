@@ -169,7 +169,7 @@ def test_a_bad_target_schedule_is_refused_naming_the_field(law, field):
 
 def test_ground_targets_need_an_orbit():
     data = _imaging_pass()
-    for block in ("orbit", "environment"):
+    for block in ("orbit", "environment", "checks"):
         del data[block]
     data["pipeline"]["sensor"] = {"type": "ideal_attitude"}
     data["pipeline"]["estimator"] = {"type": "attitude"}
