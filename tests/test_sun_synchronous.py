@@ -13,6 +13,7 @@ from scipy.optimize import brentq
 
 from testbed.errors import InputError
 from testbed.orbit.config import OrbitParams
+from testbed.orbit.sun_synchronous import sun_synchronous_cos_inclination
 from testbed.scenario.schema import load
 
 MU = 3.986004418e14   # EGM2008, written out here: the test's own constants
@@ -27,15 +28,19 @@ def sso(altitude_km, local_time="10:30", epoch="2026-06-01T00:00:00", **fields):
     return load(OrbitParams, {**block, **fields}, "orbit")
 
 
+def mean_inclination_deg(altitude_km, eccentricity=0.0):
+    return math.degrees(math.acos(sun_synchronous_cos_inclination(RE + altitude_km * 1e3, eccentricity)))
+
+
 @pytest.mark.parametrize(("altitude_km", "published_deg"), [(600, 97.79), (700, 98.19), (800, 98.60)])
-def test_the_inclination_is_the_published_one(altitude_km, published_deg):
+def test_the_mean_inclination_is_the_published_one(altitude_km, published_deg):
     """Wertz and Larson (Space Mission Analysis and Design, sun-synchronous inclinations):
-    97.79, 98.19, 98.60 deg at 600, 700, 800 km, printed to 0.01 deg: within 0.01 deg."""
-    assert sso(altitude_km).inclination_deg == pytest.approx(published_deg, abs=0.01)
+    97.79, 98.19, 98.60 deg at 600, 700, 800 km (mean elements), printed to 0.01 deg: within 0.01 deg."""
+    assert mean_inclination_deg(altitude_km) == pytest.approx(published_deg, abs=0.01)
 
 
 @pytest.mark.parametrize(("altitude_km", "eccentricity"), [(300, 0.0), (550, 0.0), (1200, 0.003), (2500, 0.05)])
-def test_the_inclination_is_the_root_of_the_node_rate(altitude_km, eccentricity):
+def test_the_mean_inclination_is_the_root_of_the_node_rate(altitude_km, eccentricity):
     """The inclination at which -(3/2) n J2 (R/p)^2 cos i equals one turn per 365.2422 days,
     found by a root finder on the rate itself (not the closed form's algebra). Well conditioned
     (d rate / d i is 1e-7 rad/s per rad): 1e-9 deg."""
@@ -46,7 +51,7 @@ def test_the_inclination_is_the_root_of_the_node_rate(altitude_km, eccentricity)
         return -1.5 * math.sqrt(MU / a**3) * J2 * (RE / p) ** 2 * math.cos(math.radians(i_deg)) - SUN_RATE
 
     expected = brentq(excess, 90.0, 180.0, xtol=1e-13)
-    assert sso(altitude_km, eccentricity=eccentricity).inclination_deg == pytest.approx(expected, abs=1e-9)
+    assert mean_inclination_deg(altitude_km, eccentricity) == pytest.approx(expected, abs=1e-9)
 
 
 def _hour_angle_deg(params) -> float:
@@ -81,14 +86,17 @@ def test_the_node_sits_at_the_local_time_from_the_sun(moment, local_time):
     assert equation_min == pytest.approx(_equation_of_time_min(moment), abs=0.75)
 
 
-@pytest.mark.parametrize(("altitude_km", "eccentricity"), [(500, 0.0), (650, 0.01), (1500, 0.0)])
-def test_a_j2_propagation_keeps_the_node_with_the_mean_sun(altitude_km, eccentricity):
-    """Fifteen orbits of the J2 propagation: the node's rate between its first and last
-    ascending crossings is the mean Sun's within 1 %. The band is first-order theory's: the
-    altitude is the osculating one at t = 0, and the J2 short-period terms put the mean
-    semi-major axis (and n's J2 term) off it by O(J2 (R/a)^2), which speeds the node by
-    0.35-0.47 % (measured; docs/theory/environment.md)."""
-    params = sso(altitude_km, "09:45", "2027-02-03T04:05:06", eccentricity=eccentricity)
+@pytest.mark.parametrize(("altitude_km", "eccentricity", "arg_perigee_deg", "true_anomaly_deg"), [
+    (500, 0.0, 0, 0), (600, 0.0, 0, 90), (650, 0.01, 40, 200), (1500, 0.0, 0, 45)])
+def test_a_j2_propagation_keeps_the_node_with_the_mean_sun(altitude_km, eccentricity, arg_perigee_deg,
+                                                          true_anomaly_deg):
+    """Fifteen orbits of the J2 propagation from the osculating elements the block sets: the
+    node's rate between its first and last ascending crossings is the mean Sun's within 5e-4.
+    The inclination is chosen for the mean elements (J2's short-period terms in a and i taken
+    out to first order); what is left is second order (measured -1e-4 to -2.3e-4; with the
+    closed form's inclination on the osculating elements it was +0.35 to +0.47 %)."""
+    params = sso(altitude_km, "09:45", "2027-02-03T04:05:06", eccentricity=eccentricity,
+                 arg_perigee_deg=arg_perigee_deg, true_anomaly_deg=true_anomaly_deg)
     prop = params.propagator()
     period = 2 * math.pi * math.sqrt((params.semi_major_axis_km * 1e3) ** 3 / MU)
     times = np.arange(0.0, 15.2 * period, 10.0)
@@ -100,8 +108,7 @@ def test_a_j2_propagation_keeps_the_node_with_the_mean_sun(altitude_km, eccentri
     t_cross = times[up] - r[up, 2] * 10.0 / (r[up + 1, 2] - r[up, 2])
     node_cross = np.interp(t_cross, times, node)
     rate = (node_cross[-1] - node_cross[0]) / (t_cross[-1] - t_cross[0])
-    assert rate / SUN_RATE == pytest.approx(1.0, abs=0.01)
-    assert math.degrees(node[0]) % 360 == pytest.approx(params.raan_deg, abs=1e-6)
+    assert rate / SUN_RATE == pytest.approx(1.0, abs=5e-4)
 
 
 @pytest.mark.parametrize(("fields", "field"), [

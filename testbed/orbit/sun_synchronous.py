@@ -1,5 +1,5 @@
 """The sun-synchronous orbit of an altitude and a local time of the ascending node: the
-inclination at which J2 turns the node at the mean Sun's rate, and the node's right ascension
+inclination at which J2 turns the mean node at the mean Sun's rate, and the node's right ascension
 at the epoch that puts it at the given local solar time (docs/theory/environment.md,
 "Sun-synchronous orbits")."""
 
@@ -27,6 +27,33 @@ def sun_synchronous_cos_inclination(a: float, e: float = 0.0) -> float:
     below -1 means no orbit of that size is sun-synchronous (a > 12 352 km for e = 0)."""
     return (-2.0 / 3.0 * SUN_MEAN_RATE_RAD_S * a**3.5 * (1.0 - e * e) ** 2
             / (J2 * EARTH_RADIUS_M**2 * math.sqrt(MU_EARTH_M3_S2)))
+
+
+def osculating_inclination(a: float, e: float, true_anomaly: float, arg_latitude: float) -> float:
+    """The inclination i [rad] to give the osculating elements at t = 0 (semi-major axis a [m],
+    eccentricity e, true anomaly and argument of latitude u = argp + nu [rad]) so that the
+    orbit's mean elements are sun-synchronous: Ω' = -(3/2) n̄ J2 (R/p̄)² cos ī with n̄ =
+    sqrt(mu/ā³) (1 + (3/4) J2 (R/p̄)² sqrt(1 - e²) (2 - 3 sin² ī)) (Brouwer's mean motion), where
+    the mean ā and ī differ from the osculating values by J2's short-period terms, to first order:
+    the energy v²/2 - mu/r + mu J2 R² P2(sin φ)/r³ is conserved, so 1/ā = 1/a - 2 J2 R² P2(sin φ0)/r0³
+    + 2 J2 R² <P2> / (a³ (1 - e²)^(3/2)), <P2> = (3/4) sin² i - 1/2 over a turn (sin φ = sin i sin u);
+    and i - ī = (3/8) J2 (R/p)² sin 2i cos 2u (Kozai 1959). Solved by fixed-point iteration from
+    the closed form (docs/theory/environment.md, "Sun-synchronous orbits")."""
+    r0 = a * (1.0 - e * e) / (1.0 + e * math.cos(true_anomaly))
+    mean_i = math.acos(max(-1.0, sun_synchronous_cos_inclination(a, e)))
+    for _ in range(50):
+        s2 = math.sin(mean_i) ** 2
+        inverse = (1.0 / a - 2.0 * J2 * EARTH_RADIUS_M**2 * (1.5 * s2 * math.sin(arg_latitude) ** 2 - 0.5) / r0**3
+                   + 2.0 * J2 * EARTH_RADIUS_M**2 * (0.75 * s2 - 0.5) / (a**3 * (1.0 - e * e) ** 1.5))
+        k = J2 * (EARTH_RADIUS_M * inverse / (1.0 - e * e)) ** 2
+        n_bar = math.sqrt(MU_EARTH_M3_S2 * inverse**3) * (1.0 + 0.75 * k * math.sqrt(1.0 - e * e) * (2.0 - 3.0 * s2))
+        cos_i = -SUN_MEAN_RATE_RAD_S / (1.5 * n_bar * k)
+        if cos_i < -1.0:
+            raise ValueError(f"no orbit this large is sun-synchronous (cos i would be {cos_i:.4g})")
+        previous, mean_i = mean_i, math.acos(cos_i)
+        if abs(mean_i - previous) < 1e-15:
+            break
+    return mean_i + 0.375 * k * math.sin(2.0 * mean_i) * math.cos(2.0 * arg_latitude)
 
 
 def hours_of_day(jd1, jd2) -> float:
