@@ -17,8 +17,7 @@ from testbed.orbit.constants import EARTH_RADIUS_M, MU_EARTH_M3_S2
 from testbed.orbit.elements import state_from_elements
 from testbed.orbit.frames import lvlh_quat, lvlh_rate
 from testbed.orbit.propagation import GravityIntegrator, Orbit, Sgp4Source
-from testbed.orbit.sun_synchronous import (node_right_ascension, osculating_inclination, parse_local_time,
-                                          sun_synchronous_cos_inclination)
+from testbed.orbit.sun_synchronous import node_right_ascension, osculating_inclination, parse_local_time
 from testbed.orbit.time_scales import Epoch, utc_parts
 from testbed.scenario.schema import join, param
 
@@ -96,17 +95,12 @@ class OrbitParams:
         for name in ("inclination_deg", "raan_deg"):
             if getattr(self, name) != fields[name].default:
                 raise InputError(join(path, name), "is set by sun_synchronous: leave it out")
-        a = self.semi_major_axis_km * 1e3
-        cos_i = sun_synchronous_cos_inclination(a, self.eccentricity)
-        if cos_i < -1.0:
-            size = "altitude_km" if self.altitude_km is not None else "semi_major_axis_km"
-            raise InputError(join(path, size), f"no orbit this large is sun-synchronous: J2 turns "
-                             f"its node slower than the Sun at any inclination (cos i would be {cos_i:.4g})")
         sso = self.sun_synchronous
         nu = math.radians(self.true_anomaly_deg)
         try:
-            inclination = osculating_inclination(a, self.eccentricity, nu, nu + math.radians(self.arg_perigee_deg))
-        except ValueError as exc:   # at the very edge, where the mean orbit is a little larger
+            inclination = osculating_inclination(self.semi_major_axis_km * 1e3, self.eccentricity, nu,
+                                                 nu + math.radians(self.arg_perigee_deg))
+        except ValueError as exc:
             raise InputError(join(path, "altitude_km" if self.altitude_km is not None else "semi_major_axis_km"),
                              str(exc)) from None
         self.inclination_deg = math.degrees(inclination)

@@ -38,7 +38,8 @@ def osculating_inclination(a: float, e: float, true_anomaly: float, arg_latitude
     the energy v²/2 - mu/r + mu J2 R² P2(sin φ)/r³ is conserved, so 1/ā = 1/a - 2 J2 R² P2(sin φ0)/r0³
     + 2 J2 R² <P2> / (a³ (1 - e²)^(3/2)), <P2> = (3/4) sin² i - 1/2 over a turn (sin φ = sin i sin u);
     and i - ī = (3/8) J2 (R/p)² sin 2i cos 2u (Kozai 1959). Solved by fixed-point iteration from
-    the closed form (docs/theory/environment.md, "Sun-synchronous orbits")."""
+    the closed form (docs/theory/environment.md, "Sun-synchronous orbits"). ValueError when no
+    inclination makes the mean node turn as fast as the Sun (the orbit is too large)."""
     r0 = a * (1.0 - e * e) / (1.0 + e * math.cos(true_anomaly))
     mean_i = math.acos(max(-1.0, sun_synchronous_cos_inclination(a, e)))
     for _ in range(50):
@@ -49,7 +50,8 @@ def osculating_inclination(a: float, e: float, true_anomaly: float, arg_latitude
         n_bar = math.sqrt(MU_EARTH_M3_S2 * inverse**3) * (1.0 + 0.75 * k * math.sqrt(1.0 - e * e) * (2.0 - 3.0 * s2))
         cos_i = -SUN_MEAN_RATE_RAD_S / (1.5 * n_bar * k)
         if cos_i < -1.0:
-            raise ValueError(f"no orbit this large is sun-synchronous (cos i would be {cos_i:.4g})")
+            raise ValueError(f"no orbit this large is sun-synchronous: J2 turns its node slower than the Sun "
+                             f"at any inclination (cos i would be {cos_i:.4g})")
         previous, mean_i = mean_i, math.acos(cos_i)
         if abs(mean_i - previous) < 1e-15:
             break
