@@ -209,3 +209,15 @@ def test_in_the_loop_the_boresight_is_on_the_line_of_sight_from_the_true_positio
         worst = max(worst, math.degrees(math.acos(min(1.0, boresight @ line / np.linalg.norm(line)))))
     assert worst <= result.metrics["max_target_error_deg"] + 1e-5
     assert result.metrics["max_target_error_deg"] < 0.002
+
+
+def test_a_target_scheduled_after_the_run_is_not_flown():
+    """A slew that would begin after the run's end (here 1e12 s: the orbit is never propagated
+    there) leaves the schedule: the run tracks the first target alone."""
+    data = _imaging_pass()
+    data["pipeline"]["law"]["targets"][1]["start_s"] = 1e12
+    data["sim"]["duration_s"] = 3
+    del data["checks"]
+    result = testbed.run(data, keep_trace=False)
+    assert result.status == "ok"
+    assert result.metrics["target_tracked_s"] == 0.0

@@ -20,7 +20,8 @@ spacecraft is below `min_elevation_deg` of the target's horizon, during a slew, 
 `settle_s` after one; a target that never rises above that elevation in its window is refused
 at load. Records `law/torque`, `target_quat`, `target_omega`, `attitude_error` [rad],
 `error_angle` [rad], `elevation` [rad] (of the spacecraft above the current target's horizon),
-`target_index` and `tracking` (docs/theory/environment.md, "Ground targets").
+`target_index` and `tracking` (docs/theory/environment.md, "Ground targets"). A target whose
+slew would begin at or after the run's end is not flown.
 """
 
 from __future__ import annotations
@@ -59,7 +60,7 @@ class GroundTargetParams:
 @dataclass(kw_only=True)
 class GroundTrackingParams:
     targets: list[GroundTargetParams] = param(doc="the ground targets, tracked in turn")
-    slew_s: float = param(30.0, gt=0, doc="duration of each slew onto a target")
+    slew_s: float = param(30.0, gt=0, le=3600, doc="duration of each slew onto a target")
     settle_s: float = param(10.0, ge=0, doc="time after a slew before law/tracking is 1")
     min_elevation_deg: float = param(10.0, ge=-90, lt=90, doc="the spacecraft's elevation above a target's "
                                      "horizon below which law/tracking is 0")
@@ -153,10 +154,11 @@ class GroundTracking:
             raise InputError(join(LAW_PATH, "targets"), "ground targets need an orbit: add an orbit: block")
         j2 = ctx.orbit.tle is not None or ctx.orbit.j2
         epoch, orbit = ctx.orbit.epoch(), ctx.orbit.propagator()   # one on-board ephemeris for every target
+        flown = [p for p in params.targets if p.start_s < ctx.end_time]   # the others' slews never begin
         self.looks = [LookAtSite(GroundSite(math.radians(p.latitude_deg), math.radians(p.longitude_deg),
                                             p.altitude_m, epoch), orbit, params.quat, j2)
-                      for p in params.targets]
-        starts = [p.start_s for p in params.targets]
+                      for p in flown]
+        starts = [p.start_s for p in flown]
         self.min_elevation = math.radians(params.min_elevation_deg)
         self._check_visible(starts, params.slew_s, ctx.end_time)
         self.schedule = TargetSchedule(self.looks, starts, params.slew_s, ctx.initial.quat, ctx.initial.omega)
