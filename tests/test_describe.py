@@ -54,6 +54,9 @@ def _keys(params_cls, path=""):
                 keys += _keys(hints[f.name], f"{path}{f.name}.")
             else:
                 keys.append(path + f.name)
+            item = typing.get_args(hints[f.name])[0] if typing.get_origin(hints[f.name]) is list else None
+            if item is not None and dataclasses.is_dataclass(item):  # a list of records: each item's fields
+                keys += _keys(item, f"{path}{f.name}[].")
     return keys
 
 

@@ -102,6 +102,13 @@ PINNED = {
         "rate_limit_violations": {"max": 0},
         "min_scale": {"min": 1},
     },
+    "imaging_pass": {
+        "max_target_error_deg": {"max": 0.02},
+        "target_jitter_arcsec_s": {"max": 13},
+        "target_tracked_s": {"min": 39},
+        "attitude_knowledge_error_arcsec": {"max": 15},
+        "rate_limit_violations": {"max": 0},
+    },
     "lebedev_detumble_ideal": {
         "residual_rate_final_deg_s": {"max": 0.1001},
         "spin_error_final_deg_s": {"max": 1.0e-4},

@@ -17,6 +17,7 @@ from testbed.orbit.constants import EARTH_RADIUS_M, MU_EARTH_M3_S2
 from testbed.orbit.elements import state_from_elements
 from testbed.orbit.frames import lvlh_quat, lvlh_rate
 from testbed.orbit.propagation import GravityIntegrator, Orbit, Sgp4Source
+from testbed.orbit.sun_synchronous import node_right_ascension, osculating_inclination, parse_local_time
 from testbed.orbit.time_scales import Epoch, utc_parts
 from testbed.scenario.schema import join, param
 
@@ -24,6 +25,22 @@ ORBIT_PATH = "orbit"
 # What a run in orbit records (testbed.environment.surroundings), as `testbed describe block` lists it.
 ORBIT_SIGNALS = ("truth/orbit_position (ECI, m)", "truth/orbit_velocity (ECI, m/s)",
                  "truth/quat_lvlh (body to LVLH, w >= 0)", "truth/torque_environment (sum, body axes, N m)")
+
+
+@dataclass(kw_only=True)
+class SunSynchronousParams:
+    """A sun-synchronous orbit: its inclination and node from the local time of the node."""
+
+    local_time_ascending_node: str = param(doc='local solar time of the ascending node at the epoch, '
+                                           '"HH:MM" or "HH:MM:SS" (quoted: YAML reads 10:30 as a number)')
+    solar_time: Literal["mean", "apparent"] = param("mean", doc="the local time's Sun: mean (fixed as the "
+                                                    "node tracks the mean Sun) or apparent (the true Sun)")
+
+    def validate(self, path: str) -> None:
+        try:
+            self.hours = parse_local_time(self.local_time_ascending_node)
+        except ValueError as exc:
+            raise InputError(join(path, "local_time_ascending_node"), str(exc)) from None
 
 
 @dataclass(kw_only=True)
@@ -43,6 +60,8 @@ class OrbitParams:
                            "when a TLE is given and this is left out)")
     j2: bool = param(True, doc="include the Earth's J2 in the propagation of elements")
     step_s: float = param(10.0, ge=0.1, le=600, doc="orbit integration step; states between are interpolated")
+    sun_synchronous: SunSynchronousParams | None = param(None, doc="set inclination_deg and raan_deg for a "
+                                                         "sun-synchronous orbit (J2) at a local time of the node")
     attitude_frame: Literal["eci", "lvlh"] = param("eci", doc="frame of initial.quat and initial.omega_*: "
                                                     "eci (inertial), or lvlh (relative to the orbit frame)")
 
@@ -50,6 +69,8 @@ class OrbitParams:
         if self.tle is not None:
             if self.altitude_km is not None or self.semi_major_axis_km is not None:
                 raise InputError(join(path, "tle"), "give a TLE or the elements, not both")
+            if self.sun_synchronous is not None:
+                raise InputError(join(path, "sun_synchronous"), "a TLE gives its own inclination and node")
             self.satrec = parse_tle(self.tle, join(path, "tle"))
             epoch_parts(self.epoch_utc, join(path, "epoch_utc"))
             self.check_propagates(path, (0.0, self.step_s))  # the grid's first states, read at t = 0
@@ -63,6 +84,27 @@ class OrbitParams:
             raise InputError(join(path, "semi_major_axis_km"), f"the perigee radius {perigee_km:.6g} km is inside "
                              f"the Earth (radius {EARTH_RADIUS_M / 1e3:g} km)")
         epoch_parts(self.epoch_utc, join(path, "epoch_utc"))
+        if self.sun_synchronous is not None:
+            self._set_sun_synchronous(path)
+
+    def _set_sun_synchronous(self, path: str) -> None:
+        """inclination_deg and raan_deg of the sun-synchronous orbit (testbed.orbit.sun_synchronous)."""
+        if not self.j2:
+            raise InputError(join(path, "j2"), "a sun-synchronous orbit's node is turned by J2: set j2: true")
+        fields = OrbitParams.__dataclass_fields__
+        for name in ("inclination_deg", "raan_deg"):
+            if getattr(self, name) != fields[name].default:
+                raise InputError(join(path, name), "is set by sun_synchronous: leave it out")
+        sso = self.sun_synchronous
+        nu = math.radians(self.true_anomaly_deg)
+        try:
+            inclination = osculating_inclination(self.semi_major_axis_km * 1e3, self.eccentricity, nu,
+                                                 nu + math.radians(self.arg_perigee_deg))
+        except ValueError as exc:
+            raise InputError(join(path, "altitude_km" if self.altitude_km is not None else "semi_major_axis_km"),
+                             str(exc)) from None
+        self.inclination_deg = math.degrees(inclination)
+        self.raan_deg = math.degrees(node_right_ascension(self.epoch(), sso.hours, sso.solar_time))
 
     def check_propagates(self, path: str, times) -> None:
         """A TLE's SGP4 propagates to each of `times` [s] from t = 0, else bad input naming the field

@@ -11,7 +11,7 @@ import numpy as np
 from testbed.orbit.time_scales import Epoch
 
 
-def _about_z(angle) -> np.ndarray:
+def about_z(angle) -> np.ndarray:
     """Frame rotations R3(angle) [rad], (N, 3, 3): the components in axes turned by +angle about z."""
     c, s = np.cos(angle), np.sin(angle)
     m = np.zeros(np.shape(angle) + (3, 3))
@@ -26,11 +26,11 @@ def gcrs_to_itrs(epoch: Epoch, times) -> np.ndarray:
     times = np.atleast_1d(np.asarray(times, float))
     middle = 0.5 * (times[0] + times[-1])
     to_cirs = erfa.c2i06a(*epoch.tt(middle))
-    return _about_z(erfa.era00(*epoch.ut1(times))) @ to_cirs
+    return about_z(erfa.era00(*epoch.ut1(times))) @ to_cirs
 
 
 def teme_to_gcrs(epoch: Epoch, t: float) -> np.ndarray:
     """The matrix (3, 3) taking TEME components to GCRS ones at run time t [s]: C^T R3(GMST82),
     with C the GCRS-to-ITRS matrix (the rotation rates of the two cancel to ~1e-11 rad/s, so it
     turns velocities too)."""
-    return gcrs_to_itrs(epoch, t)[0].T @ _about_z(erfa.gmst82(*epoch.ut1(t)))
+    return gcrs_to_itrs(epoch, t)[0].T @ about_z(erfa.gmst82(*epoch.ut1(t)))
