@@ -67,7 +67,8 @@ class Surroundings:
                        else "exponential")
         self.along = AlongOrbit(orbit_params.propagator(), self.epoch, self.period,
                                 int(sim.duration_s / self.period + 1e-9),
-                                sun=p is not None and p.sun, density_model=density,
+                                sun=p is not None and p.sun, moon=p is not None and p.moon,
+                                density_model=density,
                                 field_model=None if p is None or p.magnetic_field is None else p.magnetic_field.model)
         self.noise = None
         if p is not None and p.magnetometer is not None and p.magnetometer.noise_t > 0:
@@ -148,6 +149,9 @@ class Surroundings:
                                                               p.solar_pressure.specular, p.solar_pressure.diffuse)
                     signals["torque_solar_pressure"] = torque
                     total = total + torque
+            if p.moon:
+                to_moon = here["moon"] - r   # seen from the spacecraft: the parallax, up to 1.1 deg, is in
+                signals["moon_direction"] = to_world.T @ (to_moon / np.linalg.norm(to_moon))
             if p.drag is not None:
                 # the air turns with the Earth: v_rel = v - omega_E pole x r
                 v_rel = v - EARTH_RATE_RAD_S * cross3(here["pole"], r)
