@@ -40,6 +40,8 @@ class OwnGyroscopic:
     ("pipeline.sensor.star_tracker.boresight=[0,0,0]", "pipeline.sensor.star_tracker.boresight"),
     ("pipeline.sensor.star_tracker.outages_s=[[30,10]]", "pipeline.sensor.star_tracker.outages_s[0]"),
     ("pipeline.sensor.star_tracker.sun_exclusion_deg=30", "pipeline.sensor.star_tracker.sun_exclusion_deg"),
+    ("pipeline.sensor.star_tracker.moon_exclusion_deg=10", "pipeline.sensor.star_tracker.moon_exclusion_deg"),
+    ("pipeline.sensor.star_tracker.moon_exclusion_deg=180", "pipeline.sensor.star_tracker.moon_exclusion_deg"),
     (f"pipeline.estimator.initial_covariance={COVARIANCE}", "pipeline.estimator.initial_covariance"),
     # a ragged P0 (five rows of six, one of one) raised numpy's inhomogeneous-shape ValueError
     (f"pipeline.estimator.initial_covariance={RAGGED}", "pipeline.estimator.initial_covariance[5]"),

@@ -160,6 +160,7 @@ PINNED = {
         "max_pointing_error_deg": {"max": 0.01},
         "peak_dipole_use": {"max": 1.0},
     },
+    "orbit_node_rate": {"node_rate_error_rel": {"max": 1.5e-3}},
     "orbit_momentum_campaign": {
         "peak_envelope_share": {"max": 0.8},
         "peak_dipole_use": {"max": 1.0},

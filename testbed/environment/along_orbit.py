@@ -1,5 +1,5 @@
 """What the environment needs that depends on the orbit and the time but not on the attitude
-(the position and velocity, the Sun, the field in ECI, the density, the Earth's axis),
+(the position and velocity, the Sun, the Moon, the field in ECI, the density, the Earth's axis),
 evaluated for a block of update instants at once by the libraries' vectorised calls and read
 one instant at a time: their per-call cost is paid once a block (docs/theory/environment.md)."""
 
@@ -11,6 +11,7 @@ import numpy as np
 from testbed.environment.atmosphere import exponential_density
 from testbed.environment.magnetic_field import field_itrs
 from testbed.orbit.earth_rotation import gcrs_to_itrs
+from testbed.orbit.moon import moon_positions
 from testbed.orbit.sun import sun_positions
 
 BLOCK_SPAN_S = 6 * 3600.0   # the precession-nutation and the Sun's motion are taken at a block's middle
@@ -20,13 +21,14 @@ BLOCK_INSTANTS = 2048
 class AlongOrbit:
     """Rows of values at the instants k `period` [s], k = 0 .. last: `at(t)` for t on that grid.
 
-    Each row: r, v [m, m/s] (ECI = GCRS), and as asked for: `sun` [m, GCRS], `field` [T, GCRS]
+    Each row: r, v [m, m/s] (ECI = GCRS), and as asked for: `sun`, `moon` [m, GCRS], `field` [T, GCRS]
     (`field_model` igrf | dipole), `density` [kg/m^3] (`density_model` a MsisDensity, or
     "exponential") at the geodetic point of r, `pole` (the ITRS z axis in GCRS)."""
 
-    def __init__(self, orbit, epoch, period: float, last: int, *, sun: bool, field_model=None, density_model=None):
+    def __init__(self, orbit, epoch, period: float, last: int, *, sun: bool, moon: bool = False, field_model=None,
+                 density_model=None):
         self.orbit, self.epoch, self.period, self.last = orbit, epoch, period, last
-        self.sun, self.field_model, self.density_model = sun, field_model, density_model
+        self.sun, self.moon, self.field_model, self.density_model = sun, moon, field_model, density_model
         self.earth_fixed = field_model is not None or density_model is not None
         self.size = max(1, min(BLOCK_INSTANTS, int(BLOCK_SPAN_S // period)))
         self._first, self._rows = None, None
@@ -52,6 +54,8 @@ class AlongOrbit:
         rows = {"r": r, "v": np.array([s[1] for s in states])}
         if self.sun:
             rows["sun"] = sun_positions(self.epoch, block_times)[:count]
+        if self.moon:
+            rows["moon"] = moon_positions(self.epoch, times)
         if not self.earth_fixed:
             return rows
         to_itrs = gcrs_to_itrs(self.epoch, block_times)[:count]

@@ -13,7 +13,8 @@ from testbed.scenario.schema import join, param
 ENVIRONMENT_SIGNALS = (
     "truth/torque_gravity_gradient, truth/torque_drag, truth/torque_solar_pressure, truth/torque_residual_dipole, "
     "truth/torque_magnetorquer (body axes, N m)", "truth/eclipse (1 in the shadow)",
-    "truth/sun_direction (unit, body axes)", "truth/magnetic_field (body axes, T)",
+    "truth/sun_direction (unit, body axes)", "truth/moon_direction (unit, body axes)",
+    "truth/magnetic_field (body axes, T)",
     "truth/magnetometer (body axes, T)", "truth/magnetorquer_dipole (body axes, A m^2)",
     "truth/envelope_share (a CMG cluster's momentum over its envelope)")
 
@@ -87,6 +88,8 @@ class EnvironmentParams:
     drag: DragParams | None = param(None, doc="aerodynamic drag (absent: none)")
     solar_pressure: SolarPressureParams | None = param(None, doc="solar radiation pressure (absent: none)")
     sun: bool = param(True, doc="compute the Sun's direction (the IAU's Earth ephemeris, pyerfa)")
+    moon: bool = param(False, doc="compute the Moon's direction (Meeus's lunar theory, pyerfa's moon98) for the "
+                       "trace: truth/moon_direction")
     eclipse: bool = param(True, doc="the Earth's cylindrical shadow switches the solar pressure off")
     magnetic_field: MagneticParams | None = param(None, doc="geomagnetic field and residual dipole (absent: none)")
     magnetometer: MagnetometerParams | None = param(None, doc="the magnetometer the desaturation reads "

@@ -54,6 +54,9 @@ class Surroundings:
                            "sim.control_period_s")
             self.period = params.update_period_s
         self.next_time = 0.0
+        # it is called every control tick, on MuJoCo's clock, a sum of steps that drifts from
+        # the whole multiples (1e-9 s short after 23 100 steps of 0.1 s): an update is due from half a tick early
+        self.early = 0.5 * sim.control_period_s
         self.signals: dict[str, np.ndarray] = {}
         self.epoch = orbit_params.epoch()
         self._check_fit(orbit_params, plant, sim)
@@ -67,7 +70,8 @@ class Surroundings:
                        else "exponential")
         self.along = AlongOrbit(orbit_params.propagator(), self.epoch, self.period,
                                 int(sim.duration_s / self.period + 1e-9),
-                                sun=p is not None and p.sun, density_model=density,
+                                sun=p is not None and p.sun, moon=p is not None and p.moon,
+                                density_model=density,
                                 field_model=None if p is None or p.magnetic_field is None else p.magnetic_field.model)
         self.noise = None
         if p is not None and p.magnetometer is not None and p.magnetometer.noise_t > 0:
@@ -109,7 +113,7 @@ class Surroundings:
     def update(self, plant) -> None:
         """Recompute and apply the torques if an update is due at the plant's time."""
         t = plant.data.time
-        if t < self.next_time - 1e-9 * self.period:
+        if t < self.next_time - self.early:
             return
         self.next_time = (round(t / self.period) + 1) * self.period
         try:
@@ -148,6 +152,9 @@ class Surroundings:
                                                               p.solar_pressure.specular, p.solar_pressure.diffuse)
                     signals["torque_solar_pressure"] = torque
                     total = total + torque
+            if p.moon:
+                to_moon = here["moon"] - r   # seen from the spacecraft: the parallax, up to 1.1 deg, is in
+                signals["moon_direction"] = to_world.T @ (to_moon / np.linalg.norm(to_moon))
             if p.drag is not None:
                 # the air turns with the Earth: v_rel = v - omega_E pole x r
                 v_rel = v - EARTH_RATE_RAD_S * cross3(here["pole"], r)

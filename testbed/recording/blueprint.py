@@ -59,7 +59,7 @@ GROUP_TABS = {"truth": "attitude", "reference": "attitude", "sensor": "sensors a
 CLUSTER_SIGNALS = {"gimbal_angle", "gimbal_rate", "gimbal_rate_command", "rotor_rate",
                    "internal_momentum", "singularity_measure", "envelope_share"}
 ORBIT_ENVIRONMENT_SIGNALS = {"orbit_position", "orbit_velocity", "quat_lvlh", "eclipse", "sun_direction",
-                             "magnetic_field", "magnetorquer_dipole"}
+                             "moon_direction", "magnetic_field", "magnetorquer_dipole"}
 
 
 def tab_of(key: str, held_momenta=frozenset()) -> str:

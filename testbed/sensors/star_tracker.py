@@ -45,6 +45,8 @@ class StarTrackerParams:
                                             "angle of the boresight (needs an orbit)")
     earth_exclusion_deg: float | None = param(None, gt=0, lt=180, doc="no sample while the Earth's limb is "
                                               "within this angle of the boresight (needs an orbit)")
+    moon_exclusion_deg: float | None = param(None, gt=0, lt=180, doc="no sample while the Moon's centre is "
+                                             "within this angle of the boresight (needs an orbit)")
     seed: int = param(0, ge=0, doc="noise seed: the same seed gives the same samples bit for bit")
 
     def validate(self, path: str) -> None:

@@ -1,0 +1,26 @@
+"""Metrics of the orbit itself, from the run's truth (`truth/orbit_position`, `truth/orbit_velocity`):
+what the orbit validation scenarios check (docs/theory/environment.md, "Validation")."""
+
+from __future__ import annotations
+
+from testbed.metrics import metric
+from testbed.orbit.node_rate import first_order_node_rate, measured_node_rate
+
+ORBIT_STATE = ("truth/orbit_position", "truth/orbit_velocity")
+
+
+def _drifting_node(scenario) -> bool:
+    """An orbit of elements propagated with J2 under an uncontrolled bus (a validation run of the
+    orbit: a controlled run keeps no orbit history)."""
+    o = scenario.orbit
+    return o is not None and o.tle is None and o.j2 and scenario.stages["law"][0] == "none"
+
+
+@metric("node_rate_error_rel", applies=_drifting_node, uses=ORBIT_STATE)
+def node_rate_error_rel(run) -> float:
+    """|measured dΩ/dt / (-(3/2) n̄ J2 (R/p)² cos i) - 1|: the node's drift between the first and
+    last ascending-node crossing of the truth against its first-order closed form, on the mean
+    elements averaged over those whole turns (testbed.orbit.node_rate)."""
+    t = run.recorder.time
+    rate, elements = measured_node_rate(t, run.recorder["truth/orbit_position"], run.recorder["truth/orbit_velocity"])
+    return float(abs(rate / first_order_node_rate(*elements) - 1.0))
