@@ -303,6 +303,13 @@ PINNED = {
         "momentum_drift_rel": {"max": 1e-9},
         "max_omega_error_rad_s": {"max": 1e-8},
     },
+    "pyramid_singular_escape": {
+        "min_singularity_measure": {"max": 1e-12},
+        "torque_error_rel": {"max": 0.8},
+        "rate_limit_violations": {"max": 0},
+        "momentum_drift_rel": {"max": 1e-9},
+        "max_omega_error_rad_s": {"max": 1e-8},
+    },
     "six_unit_slew": {
         "final_attitude_error_deg": {"max": 0.01},
         "max_tracking_error_deg": {"max": 0.05},
