@@ -41,8 +41,9 @@ from testbed.steering.planned_path import PlannedPath, plan_gimbal_path
 from testbed.steering.planned_stage import PlannedAllocator
 from testbed.steering.stage import STAGE_RCOND
 from testbed.systems.cmg_cluster.arrays import ArrayParams, layout
-from testbed.systems.cmg_rhombus.cluster import ClusterGeometry, rhombus_axes
-from testbed.systems.cmg_rhombus.momentum_gauge import envelope_support, fibonacci_sphere
+from testbed.systems.cmg_cluster.arrays import rhombus_axes
+from testbed.systems.cmg_cluster.cluster import ClusterGeometry
+from testbed.systems.cmg_cluster.momentum_gauge import envelope_support, fibonacci_sphere
 
 SEED = 29
 ALPHA_DEG, RATE_MAX_DEG_S = 54.7356, 30.0

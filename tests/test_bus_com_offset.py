@@ -18,8 +18,8 @@ from coast_cases import Initial, coast_drift
 from testbed.cli import main
 from testbed.scenario.schema import load
 from testbed.systems.cmg_cluster.model import CmgClusterParams, build as build_cluster
-from testbed.systems.cmg_rhombus.plant import CmgPlant
-from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel, reduced_cmg_segment
+from testbed.systems.cmg_cluster.plant import CmgPlant
+from testbed.systems.cmg_cluster.reduced_model import CmgMassModel, reduced_cmg_segment
 from testbed.systems.reaction_wheels.model import ReactionWheelsParams, build as build_wheels
 from testbed.systems.reaction_wheels.plant import ReactionWheelPlant
 

@@ -4,7 +4,7 @@
 inertia), the `array:` (arrays.py), every unit field the rhombus has (CmgUnitsParams) and,
 for a hybrid bus, the reaction wheels' `wheels:` block (the reaction_wheels system's).
 `build` adds the array's units to the bus through MjSpec, laid out and named as in
-models/cmg_rhombus.xml, and applies every field with the rhombus's own `compile_units`.
+models/cmg_rhombus.xml, and applies every field with `compile_units` (units.py), as the rhombus does.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from testbed.math.validation import check_principal_inertia
 from testbed.scenario.schema import join, param
 from testbed.scenario.shipped_files import compile_model, load_spec
 from testbed.systems.cmg_cluster.arrays import ArrayLayout, ArrayParams, UnitParams, layout
-from testbed.systems.cmg_rhombus.cluster import unit_names
-from testbed.systems.cmg_rhombus.model import (INITIAL_KEY, CmgUnitsParams, UnitBuild, compile_units,
+from testbed.systems.cmg_cluster.cluster import unit_names
+from testbed.systems.cmg_cluster.units import (INITIAL_KEY, CmgUnitsParams, UnitBuild, compile_units,
                                               unit_actuator_names)
 from testbed.systems.free_bus import BUS_BODY, MAX_COM_M, set_bus_inertia_tensor
 from testbed.systems.reaction_wheels.model import WheelsParams, add_wheels
@@ -42,7 +42,7 @@ class CmgClusterParams(CmgUnitsParams):
         every rotor balanced.
     wheels: reaction wheels on the same bus, the reaction_wheels system's array block
         (testbed.systems.reaction_wheels.model.WheelsParams); None: none.
-    The other fields are CmgRhombusParams's, for every unit.
+    The other fields are CmgUnitsParams's (units.py), for every unit.
     """
 
     system: str = "cmg_cluster"
