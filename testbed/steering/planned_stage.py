@@ -6,7 +6,8 @@ from a cluster holding no momentum, so the cluster must hold H_w(t) = -I omega*(
 I the locked inertia: for the eigen-axis slew a line, H_w = s(t) d), plans the path
 (planned_path.plan_gimbal_path on the cluster's unit H and J, its reconfiguration at rest within
 start_s at the rate limit) and refuses the run (exit 2, before the first step) when the program
-is not along one line or the plan is refused. In flight it runs the `pga` law with the preferred
+is not along one line or the plan is refused, saying why (planned_path.Refusal) and how much
+slower the slew would plan. In flight it runs the `pga` law with the preferred
 angles moved along the plan: along the reconfiguration over [0, start_s], then the plan's angles
 one control period ahead, with the null gain 1 / Tc; the torque is the pseudo-inverse's, exact on
 the demand.
@@ -22,7 +23,7 @@ from testbed.errors import InputError
 from testbed.guidance.slew import build_program
 from testbed.pipeline import stage
 from testbed.scenario.schema import join, param
-from testbed.steering.planned_path import PLAN_WORK_LIMIT, PlannedPath, plan_gimbal_path, planning_work
+from testbed.steering.planned_path import PLAN_WORK_LIMIT, REFINEMENTS, PlannedPath, plan_gimbal_path, planning_work
 from testbed.steering.stage import SteeringAllocator, SteeringParams
 
 TYPE = "pipeline.allocator.type"
@@ -89,13 +90,13 @@ class PlannedAllocator(SteeringAllocator):
         off_line = max(np.abs(wanted - levels[:, None] * direction).max(), -levels.min())  # round-off for a line
         if off_line > 1e-9 * max(levels.max(), 1e-300):
             raise InputError(TYPE, "planned steering plans momentum programs along one line (eigen-axis slews)")
-        def plan_for(slower: float, refinements=None):
+        def plan_for(slower: float, refinements=REFINEMENTS):
             # the same slew `slower` times longer: its program at times * slower, its momentum / slower
             return plan_gimbal_path(lambda beta: self.geometry.momentum(beta) / h, self.geometry.unit_jacobian,
                                     self.start, direction, times * slower, np.maximum(levels, 0.0) / slower,
                                     self.rate_max, reconfiguration_travel=self.rate_max * program.start_s,
                                     levels=params.plan_levels, spacing=np.radians(params.plan_spacing_deg),
-                                    **({} if refinements is None else {"refinements": refinements}))
+                                    refinements=refinements)
 
         plan = plan_for(1.0)
         if not isinstance(plan, PlannedPath):
