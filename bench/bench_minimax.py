@@ -15,7 +15,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout, uninstalled
 from testbed.steering import STEERING_LAWS  # noqa: E402
-from testbed.systems.cmg_rhombus import ClusterGeometry, CmgRhombusParams, build  # noqa: E402
+from testbed.systems.cmg_cluster.cluster import ClusterGeometry  # noqa: E402
+from testbed.systems.cmg_rhombus import CmgRhombusParams, build  # noqa: E402
 
 
 def random_cases(n: int, seed: int = 0):

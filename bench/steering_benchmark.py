@@ -37,12 +37,13 @@ from pathlib import Path
 import numpy as np
 
 from testbed.steering import FOUR_UNIT_LAWS, LAW_OPTIONS, STEERING_LAWS
-from testbed.steering.planned_path import plan_gimbal_path
+from testbed.steering.planned_path import PlannedPath, plan_gimbal_path
 from testbed.steering.planned_stage import PlannedAllocator
 from testbed.steering.stage import STAGE_RCOND
 from testbed.systems.cmg_cluster.arrays import ArrayParams, layout
-from testbed.systems.cmg_rhombus.cluster import ClusterGeometry, rhombus_axes
-from testbed.systems.cmg_rhombus.momentum_gauge import envelope_support, fibonacci_sphere
+from testbed.systems.cmg_cluster.arrays import rhombus_axes
+from testbed.systems.cmg_cluster.cluster import ClusterGeometry
+from testbed.systems.cmg_cluster.momentum_gauge import envelope_support, fibonacci_sphere
 
 SEED = 29
 ALPHA_DEG, RATE_MAX_DEG_S = 54.7356, 30.0
@@ -137,9 +138,10 @@ def planned_path(case: dict, geo: ClusterGeometry, step_s: float = 0.1):
     at rest within PRESLEW_S at the rate limit; None when refused."""
     times = np.linspace(0.0, DURATION_S, int(round(DURATION_S / step_s)) + 1)
     rate_max = np.radians(RATE_MAX_DEG_S)
-    return plan_gimbal_path(lambda beta: geo.momentum(beta) / geo.h, geo.unit_jacobian, np.radians(start_sets(geo)[case["start"]]),
+    plan = plan_gimbal_path(lambda beta: geo.momentum(beta) / geo.h, geo.unit_jacobian, np.radians(start_sets(geo)[case["start"]]),
                             case["direction"], times, wanted_momentum(case, times) @ np.asarray(case["direction"]),
                             rate_max, reconfiguration_travel=rate_max * PRESLEW_S)
+    return plan if isinstance(plan, PlannedPath) else None
 
 
 def fly(law: str, case: dict, geo: ClusterGeometry | None = None, duration_s: float | None = None,

@@ -19,9 +19,11 @@ from testbed.steering import FOUR_UNIT_LAWS, LAW_OPTIONS, STEERING_LAWS, steer
 from testbed.steering.minimax_dual import dual_minimax_rates
 from testbed.systems.cmg_cluster.arrays import ArrayParams, UnitParams
 from testbed.systems.cmg_cluster.model import CmgClusterParams, build
-from testbed.systems.cmg_rhombus import ClusterGeometry, CmgRhombus, CmgRhombusParams
+from testbed.systems.cmg_cluster.cluster import ClusterGeometry
+from testbed.systems.cmg_cluster.plant import CmgRhombus
+from testbed.systems.cmg_rhombus import CmgRhombusParams
 from testbed.systems.cmg_rhombus import build as build_rhombus
-from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel
+from testbed.systems.cmg_cluster.reduced_model import CmgMassModel
 
 PYRAMID_SKEW = math.degrees(math.acos(1.0 / math.sqrt(3.0)))  # 54.7356 deg
 RNG = np.random.default_rng(38)
@@ -383,8 +385,8 @@ def test_sign_pattern_surfaces_are_singular_states_of_any_array(units):
     pyramid, turned into gimbal angles (atan2 in each unit's plane e_i, g_i x e_i), are states
     where u is normal to every torque axis: u . J = 0 and sqrt det(J J^T) = 0 (to rounding), and
     H(beta) is their sum; the pattern of all +1 gives S(u) = u . H (the envelope)."""
-    from testbed.systems.cmg_rhombus.momentum_envelope import singular_momenta
-    from testbed.systems.cmg_rhombus.momentum_gauge import envelope_support
+    from testbed.systems.cmg_cluster.momentum_envelope import singular_momenta
+    from testbed.systems.cmg_cluster.momentum_gauge import envelope_support
 
     g = geometry(ArrayParams(count=units), rotor_momentum_nms=2.0)
     for u in RNG.normal(size=(4, 3)):

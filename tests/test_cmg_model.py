@@ -9,8 +9,11 @@ from testbed.errors import InputError
 from testbed.systems.free_bus import FreeBus
 from testbed.plugins import discover
 from testbed.systems import cmg_rhombus, satellite
-from testbed.systems.cmg_rhombus import ClusterGeometry, CmgRhombus, CmgRhombusParams
-from testbed.systems.cmg_rhombus.cluster import GIMBALS, ROTORS, rhombus_axes
+from testbed.systems.cmg_cluster.cluster import ClusterGeometry
+from testbed.systems.cmg_cluster.plant import CmgRhombus
+from testbed.systems.cmg_rhombus import CmgRhombusParams
+from testbed.systems.cmg_cluster.arrays import rhombus_axes
+from testbed.systems.cmg_rhombus.model import GIMBALS, ROTORS
 from testbed.systems.registry import load_params
 
 DT = 1e-3

@@ -1,4 +1,4 @@
-"""CMG unit faults (testbed/systems/cmg_rhombus/faults.py), their detection and isolation and
+"""CMG unit faults (testbed/systems/cmg_cluster/faults.py), their detection and isolation and
 the steering on the remaining units (testbed/steering/fault_isolation.py, stage.py).
 
 Independent numbers: the rhombus geometry of SEEDS §004 eq. (15) written out here, the support
@@ -14,7 +14,7 @@ import pytest
 import testbed
 from testbed.cli import main
 from testbed.runner import prepare
-from testbed.systems.cmg_rhombus.momentum_envelope import remaining_cluster_surfaces, singular_momenta
+from testbed.systems.cmg_cluster.momentum_envelope import remaining_cluster_surfaces, singular_momenta
 
 ALPHA = np.radians(54.7356)
 SIGNS = np.array([1.0, 1.0, -1.0, -1.0])

@@ -1,4 +1,4 @@
-"""The feedforward gimbal servo (testbed/systems/cmg_rhombus/gimbal_servo.py) on cases that are
+"""The feedforward gimbal servo (testbed/systems/cmg_cluster/gimbal_servo.py) on cases that are
 not shipped scenarios: tracking of the held command, conservation of the total angular
 momentum, its deadbeat gains against a numerical solution, its limits and its observer."""
 
@@ -9,8 +9,9 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from testbed.errors import InputError
-from testbed.systems.cmg_rhombus import CmgPlant, CmgRhombusParams, build
-from testbed.systems.cmg_rhombus.gimbal_servo import kernel_moments, rate_deadbeat_gains
+from testbed.systems.cmg_cluster.plant import CmgPlant
+from testbed.systems.cmg_rhombus import CmgRhombusParams, build
+from testbed.systems.cmg_cluster.gimbal_servo import kernel_moments, rate_deadbeat_gains
 
 
 @pytest.mark.parametrize("w_n, zeta, tc", [(5.0, 1.0, 0.01), (30.0, 0.7, 0.02), (60.0, 1.3, 0.05)])

@@ -17,7 +17,7 @@ from testbed.scenario.schema import load
 from testbed.systems.cmg_cluster.hybrid_allocator import fine_part, isotropic_wheel_torque
 from testbed.systems.cmg_cluster.hybrid_plant import HybridPlant
 from testbed.systems.cmg_cluster.model import CmgClusterParams, build
-from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel, reduced_cmg_segment
+from testbed.systems.cmg_cluster.reduced_model import CmgMassModel, reduced_cmg_segment
 from testbed.systems.reaction_wheels.model import RPM
 
 TUMBLE = (0.03, -0.02, 0.025)

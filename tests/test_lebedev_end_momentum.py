@@ -12,8 +12,8 @@ import pytest
 from testbed.cli import main
 from testbed.lebedev.end_momentum import CIRCLE_POINTS, check_end_momentum_held, end_momentum_demand
 from testbed.lebedev.momentum import idle_polar_angles
-from testbed.systems.cmg_rhombus.momentum_envelope import rhombus_gimbal_axes
-from testbed.systems.cmg_rhombus.momentum_gauge import envelope_gauge
+from testbed.systems.cmg_cluster.momentum_envelope import rhombus_gimbal_axes
+from testbed.systems.cmg_cluster.momentum_gauge import envelope_gauge
 from testbed.errors import InputError
 
 DEG = np.pi / 180
@@ -101,7 +101,7 @@ def test_a_system_without_momentum_gauge_is_not_checked(monkeypatch):
     test_a_stored_momentum_beyond_the_envelope_is_refused_at_load refuses is accepted."""
     from testbed.runner import prepare
     from testbed.scenario.loading import load_scenario
-    from testbed.systems.cmg_rhombus.cluster import ClusterGeometry
+    from testbed.systems.cmg_cluster.cluster import ClusterGeometry
 
     monkeypatch.delattr(ClusterGeometry, "momentum_gauge")
     prepare(load_scenario("lebedev_spinup_cmg_momentum", ["model.gimbal_angles_deg=[0, 180, 180, 0]"]))

@@ -13,7 +13,7 @@ from scipy.integrate import solve_ivp
 from testbed.cli import main
 from testbed.runner import prepare, run_scenario
 from testbed.scenario.loading import load_scenario
-from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel
+from testbed.systems.cmg_cluster.reduced_model import CmgMassModel
 
 SKYLAB = np.array([1.25e6, 6.9e6, 7.1e6])
 DEG = np.pi / 180

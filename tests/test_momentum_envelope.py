@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from testbed.errors import InputError
-from testbed.systems.cmg_rhombus.momentum_envelope import (
+from testbed.systems.cmg_cluster.momentum_envelope import (
     EXTERNAL,
     envelope_points,
     fibonacci_sphere,
@@ -15,7 +15,7 @@ from testbed.systems.cmg_rhombus.momentum_envelope import (
     singular_surface_points,
     write_envelope_rrd,
 )
-from testbed.systems.cmg_rhombus.momentum_gauge import envelope_gauge, envelope_support
+from testbed.systems.cmg_cluster.momentum_gauge import envelope_gauge, envelope_support
 
 ALPHAS = [np.radians(30.0), np.radians(45.0), np.radians(60.0), 1.2]
 

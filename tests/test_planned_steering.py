@@ -35,7 +35,9 @@ def test_planned_steering_refuses_a_slew_it_cannot_fly_before_the_run(tmp_path, 
             "--set", "pipeline.law.duration_s=20", *(x for s in FLOWN for x in ("--set", s))]
     assert main(args) == 2
     err = capsys.readouterr().err
+    # 1.60 of the envelope: the fibres end at 0.62 of the peak (about the envelope), and the 40 s slew plans
     assert "pipeline.allocator.type" in err and "no planned gimbal path" in err and not out.exists()
+    assert "holds 0.62 of the slew's peak momentum" in err and "slowed to 40 s (duration_s) it plans" in err
 
 
 PLANNED = "pipeline.allocator={type: planned, beta_rate_max_deg_s: 10}"

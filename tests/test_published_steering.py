@@ -10,8 +10,9 @@ from rerun.chunk import RrdReader
 import testbed
 from testbed.steering import steer
 from testbed.steering.singularity_type import DEGENERATE, ELLIPTIC, HYPERBOLIC, singularity_type
-from testbed.systems.cmg_rhombus.cluster import ClusterGeometry, rhombus_axes
-from testbed.systems.cmg_rhombus.momentum_envelope import singular_momenta
+from testbed.systems.cmg_cluster.arrays import rhombus_axes
+from testbed.systems.cmg_cluster.cluster import ClusterGeometry
+from testbed.systems.cmg_cluster.momentum_envelope import singular_momenta
 
 ALPHA = np.radians(54.7356)
 RATE_MAX = np.radians(30.0)

@@ -1,4 +1,4 @@
-"""The reduced CMG model (testbed/systems/cmg_rhombus/reduced_model.py) against the MuJoCo truth and
+"""The reduced CMG model (testbed/systems/cmg_cluster/reduced_model.py) against the MuJoCo truth and
 against MuJoCo's mass matrix and momentum bookkeeping."""
 
 import mujoco
@@ -6,8 +6,10 @@ import numpy as np
 import pytest
 
 from testbed.systems import cmg_rhombus
-from testbed.systems.cmg_rhombus import CmgRhombus, CmgRhombusParams
-from testbed.systems.cmg_rhombus.reduced_model import (
+from testbed.systems.cmg_cluster.cluster import ClusterGeometry
+from testbed.systems.cmg_cluster.plant import CmgRhombus
+from testbed.systems.cmg_rhombus import CmgRhombusParams
+from testbed.systems.cmg_cluster.reduced_model import (
     CmgMassModel, reduced_cmg_omega, textbook_cmg_omega)
 
 # different amplitude and frequency per gimbal, so beta(t) is not periodic as a whole
@@ -54,7 +56,7 @@ def test_reduced_model_matches_mujoco(dt):
     # the corrections in the exact form are needed for the issue's bound
     mass_model = CmgMassModel.from_model(model)
     textbook = textbook_cmg_omega(mass_model.system_inertia(beta[0]),
-                                  cmg_rhombus.ClusterGeometry.from_model(model), times, beta,
+                                  ClusterGeometry.from_model(model), times, beta,
                                   beta_rate, omega[0], times[::every])
     assert np.max(np.abs(textbook - omega[::every])) > 1e-6
 
@@ -112,7 +114,7 @@ def test_a_window_frees_its_splines_when_it_returns():
     samples) must not be among that, or a long run's memory grows between collections."""
     import gc
 
-    from testbed.systems.cmg_rhombus.reduced_model import GimbalHistory, reduced_cmg_segment
+    from testbed.systems.cmg_cluster.reduced_model import GimbalHistory, reduced_cmg_segment
     model, times, beta, beta_rate, rotor_rate, omega = simulate_truth(2e-3, 1.0)
     gc.collect()
     gc.disable()

@@ -231,7 +231,7 @@ def test_a_fast_slew_far_inside_the_pyramids_envelope_is_planned(bench):
     # between levels, and the plan was refused. level_count takes 32 levels here (60 for the benchmark's
     # 40 s slews) and the plan is checked with Wie's pyramid formulas, not the project's: on the line
     # H = s(t) d, every rate within 30 deg/s, sqrt det >= 0.05.
-    from testbed.steering.planned_path import level_count, plan_gimbal_path
+    from testbed.steering.planned_path import PlannedPath, level_count, plan_gimbal_path
     geo, skew = bench.geometry("pyramid"), np.arccos(1 / np.sqrt(3))
     d = np.array([-0.3677550736025256, 0.3198575830161004, -0.8731823019431276])
     times, rate = np.linspace(0.0, 20.0, 201), np.radians(30.0)
@@ -242,7 +242,56 @@ def test_a_fast_slew_far_inside_the_pyramids_envelope_is_planned(bench):
     start = np.radians(bench.start_sets(geo)[1])
     assert np.abs(pyramid_momentum(start, skew)).max() < 1e-12
     plan = plan_gimbal_path(geo.momentum, geo.unit_jacobian, start, d, times, s, rate, reconfiguration_travel=rate * 5.0)
-    assert plan is not None
+    assert isinstance(plan, PlannedPath)
     assert np.abs(pyramid_momentum(plan.angles, skew) - s[:, None] * d).max() < 1e-8
     assert (np.abs(np.diff(plan.angles, axis=0)).max(axis=-1) / np.diff(times)).max() <= rate
     assert pyramid_measure(plan.angles, skew).min() >= 0.05
+
+
+# Four slews not in the repository on the 53.13 deg pyramid, at 0.47-0.57 of its support, T = 25 s, 20 deg/s,
+# from its (45, -45, 45, -45) and (60, -60, 60, -60) deg starts (index 0, 1): (direction, fraction, start).
+HALF_SUPPORT_SLEWS = [([-0.0193, 0.4593, -0.888], 0.569, 0), ([0.2483, -0.3658, -0.897], 0.475, 0),
+                      ([0.5033, -0.2489, 0.8275], 0.479, 1), ([-0.0573, 0.3795, -0.9234], 0.499, 0)]
+
+
+@pytest.mark.parametrize("direction, fraction, start", HALF_SUPPORT_SLEWS)
+def test_slews_at_half_the_53_pyramids_support_are_planned(bench, direction, fraction, start):
+    # Each was refused on samples 3 deg apart: a link between levels must fit the climb (here 60-80 % of
+    # its reach: the program asks for much of the rate limit's torque) and the samples' offset along the
+    # fibre, up to a spacing; three lost every path that way, one timed its path at 21 deg/s. Planned again
+    # on samples 1.5 and 1 deg apart (planned_path.REFINEMENTS) each flies, checked with Wie's pyramid
+    # formulas, not the project's: on the line H = s(t) d to 1e-8 h, every rate within 20 deg/s, sqrt det >= 0.05.
+    from testbed.steering.planned_path import PlannedPath, plan_gimbal_path
+    geo, skew = bench.geometry("pyramid_53"), np.arccos(0.6)
+    d = np.asarray(direction) / np.linalg.norm(direction)
+    times, rate = np.linspace(0.0, 25.0, 251), np.radians(20.0)
+    s = fraction * bench.support(geo, d) * 4 * (times / 25) * (1 - times / 25)
+    begin = np.radians(bench.start_sets(geo)[start])
+    assert np.abs(pyramid_momentum(begin, skew)).max() < 1e-12
+    plan = plan_gimbal_path(geo.momentum, geo.unit_jacobian, begin, d, times, s, rate, reconfiguration_travel=rate * 5.0)
+    assert isinstance(plan, PlannedPath)
+    assert np.abs(pyramid_momentum(plan.angles, skew) - s[:, None] * d).max() < 1e-8
+    assert (np.abs(np.diff(plan.angles, axis=0)).max(axis=-1) / np.diff(times)).max() <= rate
+    assert pyramid_measure(plan.angles, skew).min() >= 0.05
+
+
+def test_a_slew_refused_for_torque_says_so_and_plans_slower(bench):
+    # Three slews not in the repository, as above, that no sampling plans: the paths found from the start
+    # within 0.9 of the rate limit end at 0.63-0.72 of the peak momentum, where sqrt det is about 0.5 and the
+    # rates the climb needs pass the limit. The refusal says where they end; the same momentum path 1.25
+    # times slower (the same momentum, 0.8 of the torque) is planned: what stopped it was torque, not momentum.
+    from testbed.steering.planned_path import PlannedPath, Refusal, plan_gimbal_path
+    geo, rate = bench.geometry("pyramid_53"), np.radians(20.0)
+    for direction, fraction in (([0.609, -0.6934, 0.3852], 0.526), ([-0.6227, 0.7015, -0.3467], 0.582),
+                                ([-0.2717, -0.0332, 0.9618], 0.549)):
+        d = np.asarray(direction) / np.linalg.norm(direction)
+        plans = []
+        for duration in (25.0, 31.25):
+            times = np.linspace(0.0, duration, 251)
+            s = fraction * bench.support(geo, d) * 4 * (times / duration) * (1 - times / duration)
+            plans.append(plan_gimbal_path(geo.momentum, geo.unit_jacobian, np.radians(bench.start_sets(geo)[1]), d,
+                                          times, s, rate, reconfiguration_travel=rate * 5.0))
+        refused, slower = plans
+        assert isinstance(refused, Refusal) and 0.5 < refused.reached < 0.9 and refused.measure > 0.3
+        assert f"reach only {refused.reached:.2f} of the slew's peak momentum" in refused.reason()
+        assert isinstance(slower, PlannedPath)

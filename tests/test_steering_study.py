@@ -13,7 +13,8 @@ from scipy import stats
 from testbed.guidance.program_trajectory import ProgramTrajectory
 from testbed.scenario.loading import parse
 from testbed.steering import STEERING_LAWS
-from testbed.systems.cmg_rhombus.cluster import ClusterGeometry, rhombus_axes
+from testbed.systems.cmg_cluster.arrays import rhombus_axes
+from testbed.systems.cmg_cluster.cluster import ClusterGeometry
 
 SCRIPT = Path(__file__).resolve().parents[1] / "bench" / "steering_study.py"
 

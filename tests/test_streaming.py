@@ -234,7 +234,7 @@ def test_the_windowed_reduced_cmg_reference_agrees_with_the_whole_run_integratio
     that holds the whole run is the whole-run integration, bit for bit."""
     import testbed
     from testbed.recording.reference_windows import WindowedReference
-    from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel, reduced_cmg_omega, reduced_cmg_segment
+    from testbed.systems.cmg_cluster.reduced_model import CmgMassModel, reduced_cmg_omega, reduced_cmg_segment
 
     result = testbed.run("cmg_open_loop", overrides=["sim.duration_s=120", "reference=", "checks={}"])
     keys = ("truth/gimbal_angle", "truth/gimbal_rate", "truth/rotor_rate", "truth/omega")

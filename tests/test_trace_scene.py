@@ -11,8 +11,9 @@ from rerun.chunk import RrdReader
 
 import testbed
 from testbed.recording.scene import hinge_poses, moving_parts
-from testbed.systems.cmg_rhombus import ClusterGeometry, CmgRhombusParams, build
-from testbed.systems.cmg_rhombus.momentum_envelope import envelope_points
+from testbed.systems.cmg_cluster.cluster import ClusterGeometry
+from testbed.systems.cmg_rhombus import CmgRhombusParams, build
+from testbed.systems.cmg_cluster.momentum_envelope import envelope_points
 from testbed.recording.scene_drawing import measure_colors
 from testbed.recording.trace_reader import read_signals
 

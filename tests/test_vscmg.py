@@ -1,5 +1,5 @@
 """Variable-speed CMGs: the weighted law (testbed/steering/variable_speed.py) and the allocator
-`vscmg` (testbed/systems/cmg_rhombus/vscmg_allocator.py).
+`vscmg` (testbed/systems/cmg_cluster/vscmg_allocator.py).
 
 Independent numbers: the momentum rate Q eta recomputed here from the rhombus geometry of
 SEEDS §004 eq. (15) with variable rotor speeds, numpy's least squares, the rotors' speed range

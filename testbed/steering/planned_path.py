@@ -20,8 +20,9 @@ search over the surface the fibres sweep for 0 <= s <= s_max (momentum_fibres.py
   along its arc to the top level; among the paths whose samples keep m >= min(m*, m_target), the one of
   least gimbal travel (Euclidean, the arc at rest included) by a second sweep;
 - beta(t) = the path at s(t) (linear between levels, Newton back onto H = s(t) d), the same path down
-  as up, so any program with 0 <= s(t) <= s_max is flown. Refused (None) when m* < measure_floor, when
-  no sample reaches s_max, or when the timed path's smallest m or peak rate misses the floor or beta'max.
+  as up, so any program with 0 <= s(t) <= s_max is flown. Refused (a `Refusal` that says why) when
+  m* < measure_floor, when no sample reaches s_max, or when the timed path's smallest m or peak rate
+  misses the floor or beta'max; a refused plan is tried again on finer samples (plan_gimbal_path).
 """
 
 from __future__ import annotations
@@ -44,6 +45,8 @@ PLAN_WORK_LIMIT = 1e8  # at worst about 50 s of CPU (15 us a sample, measured); 
 # carried up from it and null motion between levels is lost (a 20 s slew refused at 0.53 of the pyramid's
 # support with 60 levels, flown with 32; docs/theory/steering.md "Planned paths").
 LINKS_PER_SPACING = 1.4
+# The divisors of the sample spacing a refused plan is tried again with (plan_gimbal_path).
+REFINEMENTS = (1, 2, 3)
 
 
 @dataclass(slots=True)
@@ -76,6 +79,37 @@ class PlannedPath:
     def travel_at_rest(self) -> float:
         """The reconfiguration's travel [rad]: the sum of each step's largest angle change."""
         return float(np.abs(np.diff(self.reconfiguration, axis=0)).max(axis=-1).sum()) if len(self.reconfiguration) > 1 else 0.0
+
+
+@dataclass(slots=True)
+class Refusal:
+    """Why no plan was found: the paths reachable from the start (within the rate margin, above the floor)
+    end at `reached` (0..1) of the program's peak momentum, where the best of them keeps sqrt(det(J J^T)) =
+    `measure` (nan where the fibres themselves end); reached = 1 with `peak_rate` [rad/s] set: the timed
+    path breaks the rate limit `rate_max` or the floor (its smallest measure); reached = 1 alone: every path
+    to the peak passes below the floor."""
+
+    reached: float
+    measure: float
+    rate_margin: float
+    measure_floor: float
+    rate_max: float
+    peak_rate: float | None = None
+
+    def reason(self) -> str:
+        """One line for the user."""
+        m = self.measure
+        if self.reached < 1.0 and not np.isfinite(m):
+            return (f"no gimbal state with sqrt(det(J J^T)) >= {self.measure_floor:g} holds {self.reached:.2f} of "
+                    "the slew's peak momentum along its axis")
+        if self.reached < 1.0:
+            return (f"the gimbal paths found from the start within {self.rate_margin:g} of the rate limit reach only "
+                    f"{self.reached:.2f} of the slew's peak momentum (sqrt(det(J J^T)) {m:.2f} where they end): the slew "
+                    "asks for more torque there than the cluster gives")
+        if self.peak_rate is not None:
+            return (f"the timed path reaches {np.degrees(self.peak_rate):.3g} deg/s against the limit "
+                    f"{np.degrees(self.rate_max):.3g} deg/s, sqrt(det(J J^T)) {m:.3g} at its lowest")
+        return f"every path to the peak passes sqrt(det(J J^T)) below {self.measure_floor:g} (the best keeps {m:.3f})"
 
 
 def planning_work(levels: int, spacing: float) -> float:
@@ -125,10 +159,31 @@ def _links(lower: np.ndarray, upper: np.ndarray, radius: float):
 def plan_gimbal_path(momentum, jacobian, start, direction, times, levels_of_time, rate_max: float, *,
                      reconfiguration_travel: float, levels: int = 60, spacing: float = np.radians(3.0),
                      link_radius: float = LINK_RADIUS, rate_margin: float = 0.9, m_target: float = M_TARGET,
-                     measure_floor: float = MEASURE_FLOOR) -> PlannedPath | None:
+                     measure_floor: float = MEASURE_FLOOR, refinements=REFINEMENTS) -> PlannedPath | Refusal:
     """The plan of the module doc for the cluster's unit-h `momentum(B)` and `jacobian(B)` (stacked angles),
     the start angles (on H = s(0) d), the unit `direction` d and the program's s(t) [h] at `times` [s];
-    None when refused. Angles in the plan run on continuously from the start (not wrapped)."""
+    a Refusal (why) when refused. Angles in the plan run on continuously from the start (not wrapped).
+
+    A plan refused at `spacing` is planned again on samples `spacing` / 2, then / 3 apart (`refinements`),
+    as long as the work bounds of the passes so far add up to at most PLAN_WORK_LIMIT: a link must fit
+    the climb between two levels and the offset of the samples along the fibre (up to a spacing), so a
+    program that needs most of the rate limit to climb loses its links to the sampling alone."""
+    spent, plan = 0.0, None
+    for divisor in refinements:
+        spent += planning_work(levels, spacing / divisor)
+        if plan is not None and spent > PLAN_WORK_LIMIT:
+            break
+        plan = _plan_on_samples(momentum, jacobian, start, direction, times, levels_of_time, rate_max,
+                                reconfiguration_travel, levels, spacing / divisor, link_radius, rate_margin, m_target,
+                                measure_floor)
+        if isinstance(plan, PlannedPath):
+            break
+    return plan
+
+
+def _plan_on_samples(momentum, jacobian, start, direction, times, levels_of_time, rate_max, reconfiguration_travel,
+                     levels, spacing, link_radius, rate_margin, m_target, measure_floor) -> PlannedPath | Refusal:
+    """One pass of the plan (plan_gimbal_path's arguments) on fibre samples `spacing` [rad] apart."""
     start, direction = np.asarray(start, float), np.asarray(direction, float)
     times, levels_of_time = np.asarray(times, float), np.asarray(levels_of_time, float)
     s_max = float(levels_of_time.max())
@@ -148,12 +203,15 @@ def plan_gimbal_path(momentum, jacobian, start, direction, times, levels_of_time
         steps = np.linalg.norm(difference(arc[way[1:]], arc[way[:-1]]), axis=-1)
         travel[way] = np.concatenate([[0.0], np.cumsum(steps)])
 
+    def refused(reached: float, measure: float, peak: float | None = None) -> Refusal:
+        return Refusal(reached, measure, rate_margin, measure_floor, rate_max, peak)
+
     nodes, weights, links = [arc], [arc_measure], []
     chains = [arc]
     for k in range(levels):
         chains = next_level(momentum, jacobian, chains, direction, values[k], values[k + 1], spacing, measure_floor)
         if not chains:
-            return None
+            return refused(values[k] / s_max, np.nan)
         upper = np.concatenate(chains)
         radius = min(rate_margin * rate_max * dt[k], link_radius)
         links.append(_links(nodes[-1], upper, radius))
@@ -167,8 +225,11 @@ def plan_gimbal_path(momentum, jacobian, start, direction, times, levels_of_time
         np.maximum.at(reached, j, np.minimum(widest[k][i], weights[k + 1][j]))
         widest.append(reached)
     best = float(widest[-1].max())
+    if not np.isfinite(best):  # the last level any path reaches, and the best measure there
+        last = max(k for k, reached in enumerate(widest) if np.isfinite(reached).any())
+        return refused(values[last] / s_max, float(widest[last].max()))
     if not best >= measure_floor:
-        return None
+        return refused(1.0, best)
 
     # second sweep: least travel through samples with m >= the threshold
     threshold = min(best, m_target) * (1 - 1e-12)
@@ -185,7 +246,7 @@ def plan_gimbal_path(momentum, jacobian, start, direction, times, levels_of_time
         cost.append(reached)
         previous.append(came_from)
     if not np.isfinite(cost[-1]).any():
-        return None
+        return refused(1.0, best)
     chosen = [int(np.argmin(cost[-1]))]
     for came_from in reversed(previous):
         chosen.append(int(came_from[chosen[-1]]))
@@ -209,5 +270,5 @@ def plan_gimbal_path(momentum, jacobian, start, direction, times, levels_of_time
     peak = float((np.abs(np.diff(angles, axis=0)).max(axis=-1) / np.diff(times)).max())
     lowest = float(min(measures(jacobian, angles).min(), arc_measure[way].min()))
     if lowest < measure_floor or peak > rate_max or not landed.all():
-        return None
+        return refused(1.0, lowest, peak)
     return PlannedPath(times, angles, rest, lowest, peak, best)

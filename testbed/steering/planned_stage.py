@@ -6,7 +6,8 @@ from a cluster holding no momentum, so the cluster must hold H_w(t) = -I omega*(
 I the locked inertia: for the eigen-axis slew a line, H_w = s(t) d), plans the path
 (planned_path.plan_gimbal_path on the cluster's unit H and J, its reconfiguration at rest within
 start_s at the rate limit) and refuses the run (exit 2, before the first step) when the program
-is not along one line or the plan is refused. In flight it runs the `pga` law with the preferred
+is not along one line or the plan is refused, saying why (planned_path.Refusal) and how much
+slower the slew would plan. In flight it runs the `pga` law with the preferred
 angles moved along the plan: along the reconfiguration over [0, start_s], then the plan's angles
 one control period ahead, with the null gain 1 / Tc; the torque is the pseudo-inverse's, exact on
 the demand.
@@ -22,13 +23,16 @@ from testbed.errors import InputError
 from testbed.guidance.slew import build_program
 from testbed.pipeline import stage
 from testbed.scenario.schema import join, param
-from testbed.steering.planned_path import PLAN_WORK_LIMIT, plan_gimbal_path, planning_work
+from testbed.steering.planned_path import PLAN_WORK_LIMIT, REFINEMENTS, PlannedPath, plan_gimbal_path, planning_work
 from testbed.steering.stage import SteeringAllocator, SteeringParams
 
 TYPE = "pipeline.allocator.type"
 PATH = "pipeline.allocator"
 SMALLEST_PROGRAM = 1e-9  # [h] peak momentum of a program below which there is nothing to plan
 MAX_PLAN_STEPS = 10_000  # the program is sampled this often at most (0.2 ms a sample, measured)
+# A refused slew is planned again slowed down by these factors (one pass each, unrefined), and the
+# first that plans is named in the refusal: H_w = -I w scales as 1 / T, its rate as 1 / T^2.
+SLOWER = (1.25, 1.5, 2.0)
 
 
 @dataclass(kw_only=True)
@@ -86,13 +90,20 @@ class PlannedAllocator(SteeringAllocator):
         off_line = max(np.abs(wanted - levels[:, None] * direction).max(), -levels.min())  # round-off for a line
         if off_line > 1e-9 * max(levels.max(), 1e-300):
             raise InputError(TYPE, "planned steering plans momentum programs along one line (eigen-axis slews)")
-        plan = plan_gimbal_path(lambda beta: self.geometry.momentum(beta) / h, self.geometry.unit_jacobian, self.start,
-                                direction, times, np.maximum(levels, 0.0), self.rate_max,
-                                reconfiguration_travel=self.rate_max * program.start_s, levels=params.plan_levels,
-                                spacing=np.radians(params.plan_spacing_deg))
-        if plan is None:
-            raise InputError(TYPE, "no planned gimbal path flies this slew within the rate limit and "
-                             "sqrt(det(J J^T)) >= 0.05; slow the slew down or shorten it")
+        def plan_for(slower: float, refinements=REFINEMENTS):
+            # the same slew `slower` times longer: its program at times * slower, its momentum / slower
+            return plan_gimbal_path(lambda beta: self.geometry.momentum(beta) / h, self.geometry.unit_jacobian,
+                                    self.start, direction, times * slower, np.maximum(levels, 0.0) / slower,
+                                    self.rate_max, reconfiguration_travel=self.rate_max * program.start_s,
+                                    levels=params.plan_levels, spacing=np.radians(params.plan_spacing_deg),
+                                    refinements=refinements)
+
+        plan = plan_for(1.0)
+        if not isinstance(plan, PlannedPath):
+            slower = next((k for k in SLOWER if isinstance(plan_for(k, (1,)), PlannedPath)), None)
+            advice = (f"slowed to {slower * program.duration_s:.3g} s (duration_s) it plans" if slower is not None
+                      else f"it does not plan even slowed to {SLOWER[-1] * program.duration_s:.3g} s: shorten it")
+            raise InputError(TYPE, f"no planned gimbal path flies this slew: {plan.reason()}; {advice}")
         self.plan, self.slew_start = plan, program.start_s
         self.options["null_gain_per_s"] = 1.0 / self.period
 

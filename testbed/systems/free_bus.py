@@ -11,6 +11,9 @@ from testbed.math.validation import MASS_RANGE_KG, check_in_range, check_princip
 BUS_BODY = "bus"
 BUS_JOINT = "bus"
 TORQUE_ACTUATORS = ("torque_x", "torque_y", "torque_z")
+# the farthest a bus's CoM may sit from its origin, per axis [m]: past a spacecraft's size, and
+# where m |c|^2 would swamp the inertia about the CoM that the read-outs subtract it from
+MAX_COM_M = 100.0
 
 
 def set_bus_mass(spec, inertia, mass) -> None:
@@ -28,12 +31,14 @@ def full_inertia(tensor) -> list[float]:
     return [m[0, 0], m[1, 1], m[2, 2], m[0, 1], m[0, 2], m[1, 2]]
 
 
-def set_bus_inertia_tensor(spec, tensor, mass) -> None:
-    """Write the bus's full inertia tensor [kg m^2] (3, 3), about its CoM in bus axes, and its mass
-    [kg] into `spec` (MuJoCo's fullinertia: it finds the principal axes when it compiles)."""
+def set_bus_inertia_tensor(spec, tensor, mass, com=(0.0, 0.0, 0.0)) -> None:
+    """Write the bus's full inertia tensor [kg m^2] (3, 3), about its CoM in bus axes, its mass
+    [kg] and its CoM `com` [m] (bus axes, from the bus origin) into `spec` (MuJoCo's fullinertia:
+    it finds the principal axes when it compiles)."""
     bus = spec.body(BUS_BODY)
     bus.mass = check_in_range("model.mass_kg", positive_number("model.mass_kg", mass), MASS_RANGE_KG, "kg")
     bus.fullinertia = full_inertia(tensor)
+    bus.ipos = [float(x) for x in com]
     bus.explicitinertial = True
 
 
@@ -54,9 +59,11 @@ class FreeBus:
         self.torque_actuator_ids = np.array([model.actuator(n).id for n in TORQUE_ACTUATORS])
 
     def applied(self) -> dict:
-        """The bus's own mass properties as compiled (what `set_bus_mass` wrote), by scenario path."""
+        """The bus's own mass properties as compiled (what `set_bus_mass` or `set_bus_inertia_tensor`
+        wrote), by scenario path."""
         return {"model.inertia_kg_m2": self.model.body_inertia[self.bus_body_id].tolist(),
-                "model.mass_kg": float(self.model.body_mass[self.bus_body_id])}
+                "model.mass_kg": float(self.model.body_mass[self.bus_body_id]),
+                "model.com_m": self.model.body_ipos[self.bus_body_id].tolist()}
 
     def body_omega(self, data):
         """Body-frame angular velocity [rad/s]: a free joint's rotational qvel is body-frame."""
@@ -75,8 +82,11 @@ class FreeBus:
         data.ctrl[self.torque_actuator_ids] = np.asarray(torque_body, dtype=float)
 
     def set_free_joint_state(self, data, omega0_body, quat0):
-        """Place the bus at the origin at rest in translation, attitude quat0 (normalised),
-        body-frame angular velocity omega0_body."""
+        """Place the bus origin at the world origin with attitude quat0 (normalised) and body-frame
+        angular velocity omega0_body, the system CoM at rest: the free joint's linear velocity (the
+        bus origin's, world axes) is -w x c, c the CoM from the bus origin (world axes), so a bus
+        whose CoM is off its origin turns about its CoM instead of carrying it round the origin.
+        Reads data's other joints (the CoM is the whole system's at their positions)."""
         quat = np.asarray(quat0, dtype=float)
         omega = np.asarray(omega0_body, dtype=float)
         if quat.shape != (4,) or not np.all(np.isfinite(quat)) or np.linalg.norm(quat) < 1e-9:
@@ -85,8 +95,12 @@ class FreeBus:
             raise InputError("omega0_body", f"expected 3 finite numbers, got {omega0_body}")
         data.qpos[self.qpos_adr:self.qpos_adr + 3] = 0.0
         data.qpos[self.qpos_adr + 3:self.qpos_adr + 7] = quat / np.linalg.norm(quat)
-        data.qvel[self.qvel_adr:self.qvel_adr + 3] = 0.0
         data.qvel[self.qvel_adr + 3:self.qvel_adr + 6] = omega
+        mujoco.mj_kinematics(self.model, data)
+        mujoco.mj_comPos(self.model, data)
+        rot = data.xmat[self.bus_body_id].reshape(3, 3)
+        com = data.subtree_com[self.bus_body_id] - data.xpos[self.bus_body_id]
+        data.qvel[self.qvel_adr:self.qvel_adr + 3] = -np.cross(rot @ omega, com)
 
     def refresh(self, data, mass_matrix: bool = True):
         """Recompute kinematics, CoMs, mass matrix (unless `mass_matrix` is False: a read-out
@@ -119,8 +133,8 @@ class FreeBus:
                                         - np.outer(com_body, com_body))
 
     def com_offset_body(self, data):
-        """System CoM relative to the bus origin, in bus axes [m] (zero by design); reads
-        the kinematics stored in data (see refresh)."""
+        """System CoM relative to the bus origin, in bus axes [m] (the bus's own CoM `com_m` and
+        every part's mass at its place); reads the kinematics stored in data (see refresh)."""
         rot = data.xmat[self.bus_body_id].reshape(3, 3)
         return rot.T @ (data.subtree_com[self.bus_body_id] - data.xpos[self.bus_body_id])
 

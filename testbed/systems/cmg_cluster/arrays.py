@@ -34,12 +34,12 @@ from testbed.errors import InputError
 from testbed.math.validation import check_principal_inertia, check_unit_vector
 from testbed.scenario.schema import join, param
 from testbed.steering.validation import MAX_UNITS, MIN_UNITS  # the clusters a steering law takes
-from testbed.systems.cmg_rhombus.cluster import rhombus_axes
 
 PRESETS = ("pyramid", "box", "roof", "three_orthogonal", "rhombus", "custom")
 PYRAMID_SKEW_DEG = float(np.degrees(np.arccos(1.0 / np.sqrt(3.0))))  # 54.7356 deg: Wie's pyramid
 ROOF_SKEW_DEG = 45.0
 RHOMBUS_ALPHA_DEG = float(np.degrees(np.arctan(np.sqrt(2.0))))  # SEEDS §004
+SIGNS = np.array([1.0, 1.0, -1.0, -1.0])  # s_i of SEEDS §004
 MAX_MOUNT_M = 1e3  # a unit this far from the bus origin is off any spacecraft
 # a spin axis may be this far (|g . e|) from normal to its gimbal axis, as typed by hand (four figures)
 NORMAL_TOLERANCE = 1e-3
@@ -135,6 +135,21 @@ def layout(array: ArrayParams, path: str = "model.array") -> ArrayLayout:
     g, e, radial = pyramid_axes(count, np.radians(skew))
     angles = [45.0, -45.0, 45.0, -45.0] if array.preset == "box" else [0.0] * count
     return _preset(g, e, d * radial, angles)
+
+
+def rhombus_axes(alpha):
+    """Unit vectors of SEEDS §004 in the bus frame: e_i (spin at beta = 0), g_i = s_i e_i x z
+    (gimbal) and s_i z (where the spin axis turns for beta > 0); each (4, 3).
+
+    CMG i has spin axis cos(b_i) e_i + sin(b_i) s_i z with e1 = (cos a, sin a, 0), e2 = (-cos a, sin a, 0),
+    e3 = -e1, e4 = -e2, s = (+1, +1, -1, -1); Rodrigues' formula about g_i gives R(b) e_i = cos b e_i +
+    sin b (g_i x e_i), and g_i x e_i = s_i z, so a positive MuJoCo hinge angle b_i about g_i is exactly
+    the paper's b_i."""
+    c, s = np.cos(alpha), np.sin(alpha)
+    e = np.array([[c, s, 0.0], [-c, s, 0.0], [-c, -s, 0.0], [c, -s, 0.0]])
+    z = np.array([0.0, 0.0, 1.0])
+    g = SIGNS[:, None] * np.cross(e, z)
+    return e, g, SIGNS[:, None] * z
 
 
 def pyramid_axes(count: int, skew: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

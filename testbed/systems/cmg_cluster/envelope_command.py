@@ -29,10 +29,10 @@ from testbed.systems.cmg_cluster.arrays import MAX_UNITS, MIN_UNITS, PRESETS, Ar
 from testbed.systems.cmg_cluster.model import CmgClusterParams
 from testbed.systems.cmg_cluster.hybrid_plant import HybridBus
 from testbed.systems.cmg_cluster.model import build as build_cluster
-from testbed.systems.cmg_rhombus.cluster import ClusterGeometry
+from testbed.systems.cmg_cluster.cluster import ClusterGeometry
 from testbed.systems.cmg_rhombus.model import CmgRhombusParams, build
-from testbed.systems.cmg_rhombus.momentum_envelope import write_envelope_rrd
-from testbed.systems.cmg_rhombus.momentum_gauge import envelope_support, support_extremes
+from testbed.systems.cmg_cluster.momentum_envelope import write_envelope_rrd
+from testbed.systems.cmg_cluster.momentum_gauge import envelope_support, support_extremes
 
 ALPHA_RANGE_DEG = (0.01, 89.99)  # at 0 or 90 deg the rhombus folds flat: the gimbal axes coincide
 SKEW_RANGE_DEG = (0.01, 90.0)

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from testbed.systems.cmg_rhombus.cluster import ClusterGeometry
-from testbed.systems.cmg_rhombus.plant import CmgPlant
+from testbed.systems.cmg_cluster.cluster import ClusterGeometry
+from testbed.systems.cmg_cluster.plant import CmgPlant
 from testbed.systems.reaction_wheels.plant import WheelDrive
 from testbed.systems.reaction_wheels.wheel_array import WheelArray
 

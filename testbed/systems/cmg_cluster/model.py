@@ -4,7 +4,7 @@
 inertia), the `array:` (arrays.py), every unit field the rhombus has (CmgUnitsParams) and,
 for a hybrid bus, the reaction wheels' `wheels:` block (the reaction_wheels system's).
 `build` adds the array's units to the bus through MjSpec, laid out and named as in
-models/cmg_rhombus.xml, and applies every field with the rhombus's own `compile_units`.
+models/cmg_rhombus.xml, and applies every field with `compile_units` (units.py), as the rhombus does.
 """
 
 from __future__ import annotations
@@ -21,10 +21,10 @@ from testbed.math.validation import check_principal_inertia
 from testbed.scenario.schema import join, param
 from testbed.scenario.shipped_files import compile_model, load_spec
 from testbed.systems.cmg_cluster.arrays import ArrayLayout, ArrayParams, UnitParams, layout
-from testbed.systems.cmg_rhombus.cluster import unit_names
-from testbed.systems.cmg_rhombus.model import (INITIAL_KEY, CmgUnitsParams, UnitBuild, compile_units,
+from testbed.systems.cmg_cluster.cluster import unit_names
+from testbed.systems.cmg_cluster.units import (INITIAL_KEY, CmgUnitsParams, UnitBuild, compile_units,
                                               unit_actuator_names)
-from testbed.systems.free_bus import BUS_BODY, set_bus_inertia_tensor
+from testbed.systems.free_bus import BUS_BODY, MAX_COM_M, set_bus_inertia_tensor
 from testbed.systems.reaction_wheels.model import WheelsParams, add_wheels
 
 ROTOR_QUAT = [0.70710678, -0.70710678, 0.0, 0.0]  # rotor local z = gimbal local y (the spin axis e_i)
@@ -37,19 +37,23 @@ class CmgClusterParams(CmgUnitsParams):
     inertia_kg_m2: the bus's moments of inertia (Ixx, Iyy, Izz) about its CoM, bus axes;
         products_of_inertia_kg_m2: (Ixy, Ixz, Iyz), the tensor's off-diagonal entries (its
         eigenvalues must be positive and obey the triangle inequality).
+    com_m: the bus's own CoM from the bus origin (where the units' positions are measured), bus
+        axes; the spacecraft turns about the system CoM, the bus's and every unit's masses.
     gimbal_angles_deg: the initial angles, one per unit; None: the array's own (arrays.py).
     rotor_static_imbalance_kg_m, rotor_dynamic_imbalance_kg_m2: one per unit; [] (the default):
         every rotor balanced.
     wheels: reaction wheels on the same bus, the reaction_wheels system's array block
         (testbed.systems.reaction_wheels.model.WheelsParams); None: none.
     appendages: hinged panels and slosh masses (testbed.appendages); None: a rigid bus.
-    The other fields are CmgRhombusParams's, for every unit.
+    The other fields are CmgUnitsParams's (units.py), for every unit.
     """
 
     system: str = "cmg_cluster"
     array: ArrayParams = field(default_factory=ArrayParams)  # a preset with its parameters, or custom units
     inertia_kg_m2: list[float] = param([800.0, 1000.0, 1200.0], length=3, doc="moments of inertia of the bus")
     products_of_inertia_kg_m2: list[float] = param([0.0, 0.0, 0.0], length=3, doc="Ixy, Ixz, Iyz of the bus")
+    com_m: list[float] = param([0.0, 0.0, 0.0], length=3, ge=-MAX_COM_M, le=MAX_COM_M,
+                               doc="the bus's CoM from the bus origin, bus axes")
     gimbal_angles_deg: list[float] | None = param(None, doc="initial gimbal angles; None: the array's")
     rotor_static_imbalance_kg_m: list[float] = param([], ge=0, doc="Us of each rotor (simple jitter)")
     rotor_dynamic_imbalance_kg_m2: list[float] = param([], ge=0, doc="Ud of each rotor (simple jitter)")
@@ -93,7 +97,7 @@ def build(params: CmgClusterParams, dt: float, integrator: str = "RK4") -> mujoc
     `params.appendages`, the panels and slosh masses after those (testbed.appendages.build),
     their initial deflections in the keyframe."""
     spec = load_spec("cmg_cluster.xml", dt, integrator)
-    set_bus_inertia_tensor(spec, params.inertia_tensor(), params.mass_kg)
+    set_bus_inertia_tensor(spec, params.inertia_tensor(), params.mass_kg, params.com_m)
     units = params.units()
     add_units(spec, units.count)
     angles = units.gimbal_angles_deg if params.gimbal_angles_deg is None else params.gimbal_angles_deg

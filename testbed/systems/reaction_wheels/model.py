@@ -1,7 +1,7 @@
 """The reaction-wheel spacecraft (models/reaction_wheels.xml): its parameters and `build`.
 
-`ReactionWheelsParams` is the scenario's `model:` block; `build` writes the bus's mass and full
-inertia tensor (MjSpec `fullinertia`) and adds one body, hinge and torque motor per wheel.
+`ReactionWheelsParams` is the scenario's `model:` block; `build` writes the bus's mass, full
+inertia tensor (MjSpec `fullinertia`) and CoM and adds one body, hinge and torque motor per wheel.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from testbed.errors import InputError
 from testbed.math.validation import MASS_RANGE_KG, check_in_range, check_inertia_tensor, check_unit_vector
 from testbed.scenario.schema import join, param
 from testbed.scenario.shipped_files import compile_model, load_spec
-from testbed.systems.free_bus import full_inertia
+from testbed.systems.free_bus import BUS_BODY, MAX_COM_M, full_inertia, set_bus_inertia_tensor
 from testbed.systems.reaction_wheels.wheel_array import (
     ISOTROPIC_SKEW_DEG, MAX_WHEELS, WheelArray, nasa_standard_axes, pyramid_axes, three_orthogonal_axes)
 
@@ -143,6 +143,8 @@ class ReactionWheelsParams(WheelsParams):
                                                     "products of inertia off the diagonal (I_xy = -sum m x y)")
     mass_kg: float = param(500.0, gt=0, doc="the bus alone (the wheels add theirs)")
     appendages: AppendagesParams | None = param(None, doc="solar-array wings and slosh masses on the bus (absent: a rigid bus)")
+    com_m: list[float] = param([0.0, 0.0, 0.0], length=3, ge=-MAX_COM_M, le=MAX_COM_M,
+                               doc="the bus's CoM from the bus origin (where the wheels are placed), bus axes")
 
     def validate(self, path: str) -> None:
         check_inertia_tensor(self.inertia_tensor_kg_m2, join(path, "inertia_tensor_kg_m2"))
@@ -168,12 +170,12 @@ def motor_names(count: int) -> list[str]:
 
 
 def build(params: ReactionWheelsParams, dt: float, integrator: str) -> mujoco.MjModel:
-    """Compile models/reaction_wheels.xml with the bus's mass and inertia tensor, the wheels
+    """Compile models/reaction_wheels.xml with the bus's mass, inertia tensor and CoM, the wheels
     (`add_wheels`) and any appendages after them (testbed.appendages.build), all through MjSpec."""
     spec = load_spec("reaction_wheels.xml", dt, integrator)
-    bus = spec.body("bus")
-    bus.mass = params.mass_kg
-    bus.fullinertia = full_inertia(check_inertia_tensor(params.inertia_tensor_kg_m2, "model.inertia_tensor_kg_m2"))
+    tensor = check_inertia_tensor(params.inertia_tensor_kg_m2, "model.inertia_tensor_kg_m2")
+    set_bus_inertia_tensor(spec, tensor, params.mass_kg, params.com_m)
+    bus = spec.body(BUS_BODY)
     add_wheels(spec, bus, params)
     if params.appendages is not None:
         add_appendages(spec, bus, params.appendages)

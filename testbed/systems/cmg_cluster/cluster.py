@@ -1,11 +1,7 @@
-"""Geometry of a single-gimbal CMG cluster, read back from a compiled model; the rhombus of SEEDS §004.
+"""Geometry of a single-gimbal CMG cluster of any array, read back from a compiled model.
 
-CMG i has spin axis cos(b_i) e_i + sin(b_i) s_i z with e1 = (cos a, sin a, 0),
-e2 = (-cos a, sin a, 0), e3 = -e1, e4 = -e2, s = (+1, +1, -1, -1), gimbal axis
-g_i = s_i (e_i x z). Rodrigues' formula about g_i gives R(b) e_i = cos b e_i + sin b (g_i x e_i),
-and g_i x e_i = s_i z, so a positive MuJoCo hinge angle b_i about g_i is exactly the paper's b_i.
-`rhombus_axes` places the bodies when the model is built; `ClusterGeometry` reads the axes,
-rotor momenta, H(beta) and dH/dbeta from the compiled model (never typed in a second time).
+`ClusterGeometry` reads the axes, rotor momenta, H(beta) and dH/dbeta from the compiled model
+(never typed in a second time); the units are the bodies and joints gimbal1, rotor1, ... (`unit_names`).
 """
 
 import math
@@ -15,9 +11,8 @@ import numpy as np
 
 from testbed.systems.free_bus import BUS_BODY
 from testbed.math.quaternion import quat_to_matrix
-from testbed.systems.cmg_rhombus.momentum_gauge import envelope_gauge
+from testbed.systems.cmg_cluster.momentum_gauge import envelope_gauge
 
-N_CMG = 4  # units of the seed's rhombus
 # the systems whose plant is this folder's CmgPlant: the seed's rhombus and clusters of any array
 CLUSTER_SYSTEMS = ("cmg_rhombus", "cmg_cluster")
 
@@ -36,19 +31,7 @@ def unit_count(model) -> int:
     return count
 
 
-GIMBALS, ROTORS = unit_names(N_CMG)
 ROTOR_SPEED_NUMERIC = "rotor_nominal_speed"
-SIGNS = np.array([1.0, 1.0, -1.0, -1.0])  # s_i of SEEDS §004
-
-
-def rhombus_axes(alpha):
-    """Unit vectors of SEEDS §004 in the bus frame: e_i (spin at beta = 0), g_i = s_i e_i x z
-    (gimbal) and s_i z (where the spin axis turns for beta > 0); each (4, 3)."""
-    c, s = np.cos(alpha), np.sin(alpha)
-    e = np.array([[c, s, 0.0], [-c, s, 0.0], [-c, -s, 0.0], [c, -s, 0.0]])
-    z = np.array([0.0, 0.0, 1.0])
-    g = SIGNS[:, None] * np.cross(e, z)
-    return e, g, SIGNS[:, None] * z
 
 
 class ClusterGeometry:

@@ -38,7 +38,7 @@ import numpy as np
 
 from testbed.appendages.joints import is_appendage, locked_appendage_mass
 from testbed.systems.free_bus import BUS_BODY
-from testbed.systems.cmg_rhombus.cluster import CLUSTER_SYSTEMS, ClusterGeometry, unit_count, unit_names
+from testbed.systems.cmg_cluster.cluster import CLUSTER_SYSTEMS, ClusterGeometry, unit_count, unit_names
 from testbed.math.quaternion import quat_to_matrix
 from testbed.recording.reference_windows import WindowedReference
 from testbed.references.registry import reference

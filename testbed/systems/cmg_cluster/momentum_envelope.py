@@ -31,8 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
-from testbed.systems.cmg_rhombus.cluster import rhombus_axes
-from testbed.systems.cmg_rhombus.momentum_gauge import fibonacci_sphere, unit_axes
+from testbed.systems.cmg_cluster.arrays import rhombus_axes
+from testbed.systems.cmg_cluster.momentum_gauge import fibonacci_sphere, unit_axes
 from testbed.errors import InputError
 from testbed.math.validation import finite_number, positive_number
 from testbed.recording.trace import recording_to

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from testbed.systems.cmg_rhombus.faults import FAULT_CODES
+from testbed.systems.cmg_cluster.faults import FAULT_CODES
 
 # 0.57 deg/s, a twentieth of the shipped allocators' 10 deg/s: under it the default 5 % is a
 # miss of 5e-4 rad/s (the zero command on a bus tumbling at 0.5 deg/s is missed by 7e-6 rad/s)

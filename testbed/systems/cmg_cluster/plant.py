@@ -16,15 +16,15 @@ from testbed.math.quaternion import quat_conj, quat_rotate
 from testbed.plant import Plant
 from testbed.recording.scene import moving_parts
 from testbed.steering.singularity_type import DEGENERATE, ELLIPTIC, HYPERBOLIC, KIND_NAMES
-from testbed.systems.cmg_rhombus.cluster import ClusterGeometry, unit_count, unit_names
-from testbed.systems.cmg_rhombus.faults import FAULT_CODES, FaultInjector
-from testbed.systems.cmg_rhombus.gimbal_servo import FeedForwardServo, IntVelocityServo
-from testbed.systems.cmg_rhombus.jump_refinement import JUMP_FRACTION, JUMP_NO_LIMIT_RAD_S, JumpRefinement
-from testbed.systems.cmg_rhombus.model import INITIAL_KEY, unit_actuator_names
-from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel
-from testbed.systems.cmg_rhombus.rotor_imbalance import RotorImbalance
-from testbed.systems.cmg_rhombus.servo_tracking import ServoMiss, servo_miss
-from testbed.systems.cmg_rhombus.momentum_envelope import (remaining_cluster_surfaces, singular_surface_points,
+from testbed.systems.cmg_cluster.cluster import ClusterGeometry, unit_count, unit_names
+from testbed.systems.cmg_cluster.faults import FAULT_CODES, FaultInjector
+from testbed.systems.cmg_cluster.gimbal_servo import FeedForwardServo, IntVelocityServo
+from testbed.systems.cmg_cluster.jump_refinement import JUMP_FRACTION, JUMP_NO_LIMIT_RAD_S, JumpRefinement
+from testbed.systems.cmg_cluster.units import INITIAL_KEY, unit_actuator_names
+from testbed.systems.cmg_cluster.reduced_model import CmgMassModel
+from testbed.systems.cmg_cluster.rotor_imbalance import RotorImbalance
+from testbed.systems.cmg_cluster.servo_tracking import ServoMiss, servo_miss
+from testbed.systems.cmg_cluster.momentum_envelope import (remaining_cluster_surfaces, singular_surface_points,
                                                            surface_color, surface_name)
 
 # the momentum view's marks of the singular states the path met: hyperbolic cyan, elliptic magenta, degenerate white

@@ -9,7 +9,7 @@ import numpy as np
 
 from testbed.metrics import metric
 from testbed.pipeline import output_of
-from testbed.systems.cmg_rhombus.cluster import CLUSTER_SYSTEMS
+from testbed.systems.cmg_cluster.cluster import CLUSTER_SYSTEMS
 
 
 def _servo_commanded(scenario) -> bool:
