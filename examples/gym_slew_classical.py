@@ -2,7 +2,7 @@
 
     python examples/gym_slew_classical.py
 
-The rate-limited PD of examples/slew_pd_policy.py flies reorient_minimax's 60 deg slew
+The plain PD with unit gains of examples/slew_pd_policy.py flies reorient_minimax's 60 deg slew
 through `gymnasium.make("testbed/CmgSlew-v0")` (torque action, min-max steering) until the
 episode ends at the target (within 0.01 deg and 0.002 deg/s); then the same policy, as the
 plug-in law `examples.slew_pd`, runs the same scenario for the same time with
@@ -25,7 +25,7 @@ from testbed.scenario.loading import load_mapping
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from slew_pd_policy import RateLimitedPD  # noqa: E402
+from slew_pd_policy import PlainPD  # noqa: E402
 
 
 def fly_the_env(scenario: str = "reorient_minimax", seed: int = 0) -> dict:
@@ -33,18 +33,18 @@ def fly_the_env(scenario: str = "reorient_minimax", seed: int = 0) -> dict:
     env = gymnasium.make("testbed/CmgSlew-v0", scenario=scenario)
     observation, _ = env.reset(seed=seed)
     slew = env.unwrapped
-    policy = RateLimitedPD(slew.max_rate, slew.limits.torque_max)
+    policy = PlainPD()
     torques, steps = [], 0
     while True:
         action = policy(observation)
-        torques.append(action * slew.limits.torque_max)
+        torques.append(action * slew.scales.torque)
         observation, _, terminated, truncated, info = env.step(action)
         steps += 1
         if terminated or truncated:
             break
     ended = {"steps": steps, "terminated": terminated, "info": info, "torques": np.array(torques),
              "quat": slew.sim.plant.quat(), "omega": slew.sim.plant.omega(), "target": slew.target,
-             "max_rate": slew.max_rate, "torque_max": slew.limits.torque_max}
+             "scales": slew.scales}
     env.close()
     return ended
 
@@ -57,7 +57,8 @@ def run_the_plugin(ended: dict, scenario: str = "reorient_minimax") -> testbed.R
     data["plugins"] = [str(HERE / "slew_pd_policy.py")]
     data["sim"]["duration_s"] = ended["steps"] * period
     data["pipeline"]["law"] = {"type": "examples.slew_pd", "target_quat": ended["target"].tolist(),
-                               "max_rate_rad_s": ended["max_rate"], "torque_max_nm": ended["torque_max"]}
+                               "error_scale_rad": ended["scales"].error, "rate_scale_rad_s": ended["scales"].rate,
+                               "torque_scale_nm": ended["scales"].torque}
     data["checks"] = {}
     return testbed.run(data)
 

@@ -19,7 +19,7 @@ import numpy as np
 from testbed.appendages.joints import AppendageJoints
 from testbed.scenario.shipped_files import INTEGRATORS
 
-INTEGRATOR_NAMES = {int(value): name for name, value in INTEGRATORS.items()}
+INTEGRATOR_NAMES = {int(getattr(mujoco.mjtIntegrator, member)): name for name, member in INTEGRATORS.items()}
 
 
 # MuJoCo writes its warnings to MUJOCO_LOG.TXT in the working directory unless a callback takes

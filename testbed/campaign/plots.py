@@ -19,8 +19,8 @@ import math
 from pathlib import Path
 
 import numpy as np
-import rerun as rr
-import rerun.blueprint as rrb
+from testbed.recording.rerun_sdk import rr
+from testbed.recording.rerun_sdk import rrb
 
 from testbed.campaign.summary_markdown import summary_markdown, unit_text
 from testbed.recording.trace import recording_to

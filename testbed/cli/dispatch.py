@@ -28,10 +28,16 @@ class _Parser(argparse.ArgumentParser):
         raise InputError("usage", message)
 
 
-def _parser() -> argparse.ArgumentParser:
+def _parser(argv: list[str]) -> argparse.ArgumentParser:
+    """The parser of `argv`'s command: a built-in one needs no system package imported (they
+    bring MuJoCo and SciPy, `testbed list` does without them); any other command, or none
+    (`testbed --help`), discovers the system packages, which may add subcommands
+    (testbed.cli.commands), listed after the built-in ones."""
     parser = _Parser(prog="testbed", description="Gyrodyne (control-moment gyroscope) attitude-control testbed on MuJoCo.")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    discover()  # system packages may add subcommands (testbed.cli.commands), listed after these
+    word = next((arg for arg in argv if not arg.startswith("-")), None)
+    if word not in COMMANDS or COMMANDS[word].__module__ not in {module.__name__ for module in BUILT_IN_COMMANDS}:
+        discover()
     order = {module.__name__: i for i, module in enumerate(BUILT_IN_COMMANDS)}
     for _, add_parser in sorted(COMMANDS.items(), key=lambda item: order.get(item[1].__module__, len(order))):
         add_parser(sub)
@@ -45,7 +51,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with signals_as_exceptions(), warnings.catch_warnings():
             warnings.simplefilter("ignore")  # numerical warnings never reach the terminal raw
-            args = _parser().parse_args(argv)  # --help ends here, with its own SystemExit(0)
+            argv = sys.argv[1:] if argv is None else argv
+            args = _parser(argv).parse_args(argv)  # --help ends here, with its own SystemExit(0)
             try:
                 return args.func(args)
             except SystemExit as exc:  # plug-in code outside a stage (a system, a reference) exiting

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from testbed import api
 from testbed.cli.commands import EXIT_FAILED, EXIT_OK, command, reported
 from testbed.cli.run import print_checks
 
@@ -19,6 +18,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
+    from testbed import api
+
     info = api.inspect(args.rrd)  # refuses an empty name, a missing, foreign or damaged file (InputError)
     path = Path(args.rrd)
 

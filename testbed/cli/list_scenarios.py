@@ -13,7 +13,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from testbed.scenario.loading import read_yaml
+    from testbed.scenario.yaml_reading import read_yaml
     from testbed.scenario.shipped_files import SCENARIO_DIR
 
     paths = sorted(SCENARIO_DIR.glob("*.yaml"))

@@ -1,16 +1,16 @@
 """`testbed run` (one scenario, its .rrd and its summary) and `testbed check` (scenarios and
-a table of their checks): exit status 0 every check passed, 1 a check failed or a run diverged."""
+a table of their checks): exit status 0 every check passed, 1 a check failed or a run diverged.
+The run's machinery (MuJoCo, SciPy, Rerun behind it) is imported when a command runs, not when
+the parser is built: every other command starts without it."""
 
 from __future__ import annotations
 
 import json
 import sys
 
-from testbed import api
 from testbed.cli.commands import EXIT_FAILED, EXIT_OK, command, reported
 from testbed.cli.json_stdout import reserved_for_json
 from testbed.cli.progress import advance_to, building_notice, progress_bar
-from testbed.metrics import value_text
 from testbed.recording import live_view
 from testbed.recording.output_paths import checked_output, default_output
 
@@ -44,6 +44,7 @@ def add_check_parser(sub) -> None:
 
 
 def _run_one(name: str, overrides, out: str | None, show_progress: bool, view: bool = False, connect: str | None = None):
+    from testbed import api
     from testbed.runner import prepare
 
     with building_notice(str(name), show_progress):
@@ -67,6 +68,8 @@ def _live_view(view: bool, connect: str | None):
 
 
 def _run_loaded(scenario, out, show_progress: bool, live=None, prepared=None):
+    from testbed import api
+
     duration = scenario.sim.duration_s
     with progress_bar(scenario.name, duration, "sim s") as bar:
         bar.disable = bar.disable or not show_progress
@@ -102,6 +105,8 @@ def _explained_json(result, explain: bool) -> dict:
 
 
 def print_checks(rows) -> None:
+    from testbed.metrics import value_text
+
     if not rows:
         return
     print(f"{'scenario':28s} {'check':32s} {'value':>12s}  {'limit':16s} result")
@@ -122,6 +127,7 @@ def run(args) -> int:
 
 
 def check(args) -> int:
+    from testbed import api
     from testbed.runner import prepare
     from testbed.scenario.shipped_files import SCENARIO_DIR
 

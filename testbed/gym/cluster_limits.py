@@ -1,5 +1,6 @@
-"""The limits of the four-CMG cluster an environment's spaces are scaled by: the gimbal-rate
-limit of the scenario's steering law and the torque envelope it bounds."""
+"""The limits of the CMG cluster an environment's spaces are scaled by: the gimbal-rate limit of
+the scenario's steering law, the momentum the cluster holds along its weakest axis, the torque
+it gives there, and the spacecraft's largest principal inertia (docs/stepping.md "Scaling")."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.pipeline import stage_info
+from testbed.systems.cmg_rhombus.momentum_gauge import support_extremes
 
 
 @dataclass(frozen=True)
@@ -16,15 +18,26 @@ class ClusterLimits:
     """gimbals: how many; rotor_momentum [N m s] each; gimbal_rate_max [rad/s]: the steering
     law's limit. `torque_max` = gimbals h rate_max [N m] bounds the torque the cluster can give
     at that limit along any axis (each gimbal gives at most h rate_max: the rhombus-cluster
-    reorientation paper's eq. 17-18, docs/theory/papers.md)."""
+    reorientation paper's eq. 17-18, docs/theory/papers.md). least_momentum [N m s]: min over
+    directions u of the most momentum the cluster holds along u, S(u) = sum_i h_i |u x g_i|
+    (docs/theory/momentum-envelope.md); inertia_max [kg m^2]: the largest principal moment of
+    the spacecraft with its gimbals locked."""
 
     gimbals: int
     rotor_momentum: float
     gimbal_rate_max: float
+    least_momentum: float
+    inertia_max: float
 
     @property
     def torque_max(self) -> float:
         return self.gimbals * self.rotor_momentum * self.gimbal_rate_max
+
+    @property
+    def torque_everywhere(self) -> float:
+        """rate_max S_min [N m]: the most torque the cluster gives along its weakest axis (the
+        torques at gimbal rates up to rate_max are rate_max times the momentum set)."""
+        return self.gimbal_rate_max * self.least_momentum
 
     @property
     def momentum_max(self) -> float:
@@ -41,7 +54,10 @@ class ClusterLimits:
         if limit is None:
             raise InputError("pipeline.allocator.type", f"the environment needs a steering law with a gimbal-rate "
                                                         f"limit, not {scenario.stages['allocator'][0]}")
-        return cls(plant.actuators["gimbal_rates"][0], float(scenario.model.rotor_momentum_nms), float(limit))
+        cluster = plant.description()
+        (least, _), _ = support_extremes(cluster.gimbal_axes, cluster.rotor_momentum)
+        return cls(plant.actuators["gimbal_rates"][0], float(scenario.model.rotor_momentum_nms), float(limit),
+                   least, float(np.linalg.eigvalsh(plant.locked_inertia()).max()))
 
 
 def singularity_measure(sim) -> float:

@@ -4,12 +4,15 @@ the slew law's target attitude (docs/stepping.md "CmgSlew-v0": spaces, reward, t
 The scenario (default reorient_campaign: a random axis and angle per seed) names the target
 through its `slew` law (`target_quat`, q0 ∘ (axis, angle)); the action replaces the law (the
 body torque wanted, steered by the scenario's steering law) or the steering law itself (the
-gimbal rates).
+gimbal rates). The observation and action are scaled by the cluster's limits so that the plain
+PD a = o_e - o_w (unit gains) is a rate-limited eigenaxis slew, critically damped at the
+largest inertia (docs/stepping.md "Scaling").
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import gymnasium
 import numpy as np
@@ -18,78 +21,132 @@ from testbed.errors import InputError
 from testbed.gym.cluster_limits import ClusterLimits, scaled, singularity_measure
 from testbed.gym.stepped_env import SteppedEnv
 from testbed.math.quaternion import quat_conj, quat_mul, rotation_vector
+from testbed.math.validation import positive_number
 
 # the reward's weights: attitude error, body rate, effort (each term at most 1 per component)
 ATTITUDE_WEIGHT, RATE_WEIGHT, EFFORT_WEIGHT = 1.0, 0.1, 0.01
+# The time limit's default settling allowance, in units of 1/omega_n of the unit PD's linear
+# region: a critically damped error falls as (1 + x) e^-x, x = omega_n t, to 1e-4 of e_s at x = 11.6.
+SETTLING_TIMES = 15.0
 
 
-def attitude_observation(quat, omega, target_quat, max_rate: float) -> np.ndarray:
-    """[e / pi, omega / max_rate] (6,): e = the rotation vector taking the body to the target,
-    body axes [rad] (|e| <= pi), omega the body rate [rad/s], clipped to [-1, 1]."""
-    error = rotation_vector(quat_mul(quat_conj(quat), target_quat))
-    return np.concatenate([error / math.pi, scaled(omega, max_rate)])
+def rotation_to(quat, target_quat) -> np.ndarray:
+    """e (3,): the rotation vector taking the body at `quat` to `target_quat`, body axes [rad]."""
+    return rotation_vector(quat_mul(quat_conj(quat), target_quat))
+
+
+def attitude_observation(quat, omega, target_quat, error_scale: float, rate_scale: float) -> np.ndarray:
+    """[e / e_s with its norm held to 1 (its direction kept), omega / omega_s] (6,): e the
+    rotation vector taking the body to the target, body axes [rad], omega the body rate
+    [rad/s]; e_s [rad] and omega_s [rad/s] the scales (`SlewScales`)."""
+    error = rotation_to(quat, target_quat) / error_scale
+    norm = float(np.linalg.norm(error))
+    return np.concatenate([error / max(norm, 1.0), np.asarray(omega, dtype=np.float64) / rate_scale])
+
+
+@dataclass(frozen=True)
+class SlewScales:
+    """The scales of CmgSlew's spaces (docs/stepping.md "Scaling"), from the cluster's limits:
+
+    torque tau_s = rate_max S_min [N m], the most torque the cluster gives along its weakest
+    axis (the action's unit); rate omega_s = f S_min / J_max [rad/s], the body rate whose
+    momentum the cluster holds along any axis with the margin 1 - f (the rate observation's
+    unit, and the cruise rate of the unit PD); error e_s = 4 J_max omega_s^2 / tau_s [rad], at
+    which the PD a = e/e_s - omega/omega_s is critically damped on the largest inertia
+    (J e'' + (tau_s/omega_s) e' + (tau_s/e_s) e = 0: omega_n = tau_s / (2 J_max omega_s))."""
+
+    torque: float
+    rate: float
+    error: float
+    natural_frequency: float
+
+    @classmethod
+    def of(cls, limits: ClusterLimits, momentum_fraction: float) -> "SlewScales":
+        torque = limits.torque_everywhere
+        rate = momentum_fraction * limits.least_momentum / limits.inertia_max
+        return cls(torque, rate, 4.0 * limits.inertia_max * rate**2 / torque,
+                   torque / (2.0 * limits.inertia_max * rate))
+
+    def time_limit(self, angle: float, settling_times: float = SETTLING_TIMES) -> float:
+        """[s] of a slew by `angle` [rad]: the cruise at omega_s, then `settling_times` / omega_n."""
+        return angle / self.rate + settling_times / self.natural_frequency
 
 
 class CmgSlewEnv(SteppedEnv):
     """A slew of the four-CMG bus to rest at the target.
 
-    action "torque": a in [-1, 1]^3, the body torque wanted a * torque_max (torque_max =
-    n h rate_max, `ClusterLimits`), steered by the scenario's steering law; "gimbal_rates":
-    a in [-1, 1]^n, the gimbal rates a * rate_max [rad/s] straight to the gimbal servos.
-    observation (17,) in [-1, 1]: the attitude error and body rate (`attitude_observation`),
-    sin and cos of the n gimbal angles, the cluster's momentum / (n h) (body axes).
+    action "torque": a in [-1, 1]^3, the body torque wanted a * tau_s (`SlewScales`), steered
+    by the scenario's steering law; "gimbal_rates": a in [-1, 1]^n, the gimbal rates
+    a * rate_max [rad/s] straight to the gimbal servos.
+    observation (12 + 2n,): the attitude error and body rate in the scales (`attitude_observation`;
+    the rate within +-max_rate / omega_s), sin and cos of the n gimbal angles, the cluster's
+    momentum / (n h) and the attitude error / pi (body axes), each in [-1, 1].
     reward per control period: -(|e|/pi)^2 - 0.1 |omega / max_rate|^2 - 0.01 |a|^2 / dim(a).
     terminated: done when |e| <= tolerance_deg and |omega| <= rate_tolerance_deg_s; failed when
-    a body rate component passes max_rate_deg_s, the gimbals reach a singular set (measure below
-    singular_measure_min) or the run diverges (cost: 1.31 a period left).
-    truncated: at the scenario's duration."""
+    a body rate component passes max_rate_deg_s, the run diverges or, with singular_measure_min
+    given, the gimbals reach a singular set (cost: 1.31 a period left).
+    truncated: at the episode's time limit, `SlewScales.time_limit` of its slew angle with
+    `settling_times`, or the scenario's end if sooner (the default overrides make the run long
+    enough for any angle)."""
 
     failure_cost_per_period = ATTITUDE_WEIGHT + 3 * RATE_WEIGHT + EFFORT_WEIGHT
 
-    def __init__(self, scenario="reorient_campaign", overrides=(), action: str = "torque",
+    def __init__(self, scenario="reorient_campaign", overrides=("sim.duration_s=300",), action: str = "torque",
                  tolerance_deg: float = 0.01, rate_tolerance_deg_s: float = 0.002, max_rate_deg_s: float = 6.0,
-                 singular_measure_min: float = 0.05, render_mode: str | None = None, rrd_path=None):
+                 momentum_fraction: float = 0.6, settling_times: float = SETTLING_TIMES,
+                 singular_measure_min: float | None = None,
+                 render_mode: str | None = None, rrd_path=None):
         if action not in ("torque", "gimbal_rates"):
             raise InputError("action", f"must be 'torque' or 'gimbal_rates', got {action!r}")
         for name, value in (("tolerance_deg", tolerance_deg), ("rate_tolerance_deg_s", rate_tolerance_deg_s),
-                            ("max_rate_deg_s", max_rate_deg_s)):
-            if not value > 0:
-                raise InputError(name, f"must be > 0, got {value!r}")
+                            ("max_rate_deg_s", max_rate_deg_s), ("settling_times", settling_times)):
+            positive_number(name, value)
+        if not 0 < momentum_fraction < 1:
+            raise InputError("momentum_fraction", f"must be in (0, 1), got {momentum_fraction!r}")
         super().__init__(scenario, overrides, render_mode, rrd_path)
         if "target_quat" not in getattr(self.sim.pipeline.law, "statistics", {}):
             raise InputError("pipeline.law.type", "CmgSlew needs a law that declares its target (e.g. slew), "
                                                   f"not {self.sim.scenario.stages['law'][0]}")
         self.action = action
         self.limits = ClusterLimits.of(self.sim)
+        self.scales = SlewScales.of(self.limits, momentum_fraction)
         self.tolerance = math.radians(tolerance_deg)
         self.rate_tolerance = math.radians(rate_tolerance_deg_s)
         self.max_rate = math.radians(max_rate_deg_s)
         self.singular_measure_min = singular_measure_min
+        self.settling_times = settling_times
         n = self.limits.gimbals
         self.action_space = gymnasium.spaces.Box(-1.0, 1.0, (3 if action == "torque" else n,), np.float64)
-        self.observation_space = gymnasium.spaces.Box(-1.0, 1.0, (9 + 2 * n,), np.float64)
+        rate_bound = self.max_rate / self.scales.rate
+        high = np.concatenate([np.ones(3), np.full(3, rate_bound), np.ones(2 * n + 6)])
+        self.observation_space = gymnasium.spaces.Box(-high, high, dtype=np.float64)
         self.episode_started()
 
     def episode_started(self) -> None:
         self.target = np.asarray(self.sim.pipeline.law.statistics["target_quat"], dtype=np.float64)
 
+    def time_limit_ticks(self) -> int:
+        angle = float(np.linalg.norm(rotation_to(self.sim.plant.quat(), self.target)))
+        return math.ceil(self.scales.time_limit(angle, self.settling_times) / self.control_period_s)
+
     def command(self, action):
         if self.action == "torque":
-            return {"law": {"torque": action * self.limits.torque_max}}
+            return {"law": {"torque": action * self.scales.torque}}
         return {"allocator": {"gimbal_rates": action * self.limits.gimbal_rate_max}}
 
     def observation(self):
         plant = self.sim.plant
         beta = np.asarray(plant.actuator_state()["gimbal_angle"], dtype=np.float64)
-        return np.concatenate([attitude_observation(plant.quat(), plant.omega(), self.target, self.max_rate),
+        attitude = attitude_observation(plant.quat(), plant.omega(), self.target, self.scales.error, self.scales.rate)
+        return np.concatenate([np.clip(attitude, self.observation_space.low[:6], self.observation_space.high[:6]),
                                np.sin(beta), np.cos(beta),
-                               scaled(plant.internal_momentum_body(), self.limits.momentum_max)])
+                               scaled(plant.internal_momentum_body(), self.limits.momentum_max),
+                               rotation_to(plant.quat(), self.target) / math.pi])
 
     def _errors(self) -> tuple[float, float]:
         """(attitude error angle [rad], body rate norm [rad/s]) now."""
         plant = self.sim.plant
-        return (float(np.linalg.norm(rotation_vector(quat_mul(quat_conj(plant.quat()), self.target)))),
-                float(np.linalg.norm(plant.omega())))
+        return float(np.linalg.norm(rotation_to(plant.quat(), self.target))), float(np.linalg.norm(plant.omega()))
 
     def reward(self, action):
         angle, _ = self._errors()
@@ -99,8 +156,9 @@ class CmgSlewEnv(SteppedEnv):
 
     def outcome(self):
         angle, rate = self._errors()
-        failed = (bool(np.any(np.abs(self.sim.plant.omega()) > self.max_rate))
-                  or singularity_measure(self.sim) < self.singular_measure_min)
+        failed = bool(np.any(np.abs(self.sim.plant.omega()) > self.max_rate))
+        if self.singular_measure_min is not None:
+            failed = failed or singularity_measure(self.sim) < self.singular_measure_min
         return angle <= self.tolerance and rate <= self.rate_tolerance, failed
 
     def details(self):

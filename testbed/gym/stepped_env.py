@@ -25,10 +25,12 @@ class SteppedEnv(gymnasium.Env):
     drawn from it sets the scenario's campaign dispersions, when it has any (its
     `sweep.dispersions`: e.g. reorient_campaign's slew axis and angle): the same seed, the
     same episode bit for bit. step(action): one control period. The episode is truncated at
-    the scenario's duration, and terminated when the task is done or has failed (the run
+    its time limit (`time_limit_ticks`: the scenario's duration unless the subclass sets a
+    shorter one for the episode drawn), and terminated when the task is done or has failed (the run
     diverged, a stage failed, or the subclass's own bounds); a failure costs
     `failure_cost_per_period` times the periods left, and a success earns `success_bonus()`:
-    `failure_cost_per_period` (the most a period can cost) times the episode's periods, so that
+    `failure_cost_per_period` (the most a period can cost) times the episode's periods (its time
+    limit), so that
     every episode that succeeds returns at least 0 and more than every episode that does not
     (whose costs sum to at most 0), and, of two successes, the sooner returns more when their
     periods cost alike (docs/stepping.md "Reward"). render_mode "rrd": each episode's trace
@@ -51,6 +53,7 @@ class SteppedEnv(gymnasium.Env):
         sim = self.sim.scenario.sim
         self.metadata = dict(self.metadata, render_fps=1.0 / sim.control_period_s)
         self.control_period_s = sim.control_period_s
+        self.episode_ticks = self.sim.n_ticks
 
     # --- what a subclass says ----------------------------------------------------------------
     def command(self, action: np.ndarray) -> dict:
@@ -74,12 +77,18 @@ class SteppedEnv(gymnasium.Env):
     def episode_started(self) -> None:
         """Design data of the episode just built (its drawn target, ...)."""
 
+    def time_limit_ticks(self) -> int:
+        """The control periods the episode just started may last (called after `episode_started`);
+        more than the scenario's are cut to the scenario's."""
+        return self.sim.n_ticks
+
     # --- Gymnasium's interface -------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         case_seed = int(self.np_random.integers(2**32))
         self.sim.reset(seed=case_seed if self.sim.disperses else None)
         self.episode_started()
+        self.episode_ticks = min(self.time_limit_ticks(), self.sim.n_ticks)
         return self.observation(), self._info(False)
 
     def step(self, action):
@@ -89,7 +98,7 @@ class SteppedEnv(gymnasium.Env):
         if action.shape != self.action_space.shape or not np.all(np.isfinite(action)):
             raise ValueError(f"the action must be a finite array of shape {self.action_space.shape}, got {action!r}")
         action = np.clip(action, self.action_space.low, self.action_space.high)
-        periods_left = self.sim.n_ticks - self.sim.ticks
+        periods_left = self.episode_ticks - self.sim.ticks
         self.sim.step(self.command(action))
         if self.sim.status != "ok":
             done, failed = False, True
@@ -101,7 +110,7 @@ class SteppedEnv(gymnasium.Env):
         if failed:
             reward -= self.failure_cost_per_period * (periods_left - 1)
         terminated = done or failed
-        truncated = not terminated and self.sim.ticks >= self.sim.n_ticks
+        truncated = not terminated and self.sim.ticks >= self.episode_ticks
         return self.observation(), float(reward), terminated, truncated, self._info(done)
 
     def render(self):
@@ -114,7 +123,7 @@ class SteppedEnv(gymnasium.Env):
 
     def success_bonus(self) -> float:
         """What a success earns at once: the most the whole episode could cost (class doc)."""
-        return self.failure_cost_per_period * self.sim.n_ticks
+        return self.failure_cost_per_period * self.episode_ticks
 
     def _info(self, done: bool) -> dict:
         return {"time_s": self.sim.time, "status": self.sim.status, "is_success": bool(done)} | self.details()

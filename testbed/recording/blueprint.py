@@ -6,7 +6,7 @@ labelled with its unit, and a result tab (the stored result, whole), which it op
 from __future__ import annotations
 
 import numpy as np
-import rerun.blueprint as rrb
+from testbed.recording.rerun_sdk import rrb
 
 from testbed.recording.orbit_drawing import ORBIT_SIGNAL, ORBIT_SPACE
 from testbed.recording.scene_drawing import MOMENTUM_SPACE, extent

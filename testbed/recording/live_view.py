@@ -122,7 +122,7 @@ class ViewerStream:
         self.complete = False  # whether the viewer took the whole run (set by close)
 
     def open(self, application: str, recording_id: str) -> None:
-        import rerun as rr
+        from testbed.recording.rerun_sdk import rr
 
         self.rec = rr.RecordingStream(application, recording_id=recording_id)
         self.rec.set_sinks(rr.GrpcSink(self.url))
@@ -133,7 +133,7 @@ class ViewerStream:
     def close(self, timeout: float = CLOSE_S) -> None:
         """Send what is left within `timeout` s (0: do not wait), setting `complete`. A stream
         not closed by then is left to the process's exit, and Rerun's wait at exit dropped."""
-        import rerun as rr
+        from testbed.recording.rerun_sdk import rr
 
         if self.rec is None:
             return

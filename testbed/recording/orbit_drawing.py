@@ -4,7 +4,7 @@ ECI with lengths in thousands of km (Mm), under the entity `orbit_space` (its ow
 from __future__ import annotations
 
 import numpy as np
-import rerun as rr
+from testbed.recording.rerun_sdk import rr
 
 ORBIT_SPACE = "orbit_space"
 ORBIT_SIGNAL = "truth/orbit_position"

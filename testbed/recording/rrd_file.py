@@ -16,7 +16,7 @@ import os
 import time
 from pathlib import Path
 
-import rerun as rr
+from testbed.recording.rerun_sdk import rr
 
 from testbed.recording.atomic_file import partial_beside
 from testbed.recording.rrd_frames import whole_frames_end

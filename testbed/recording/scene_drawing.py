@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import numpy as np
-import rerun as rr
+from testbed.recording.rerun_sdk import rr
 
 from testbed.recording.scene import hinge_poses
 

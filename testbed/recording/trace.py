@@ -27,7 +27,7 @@ import uuid
 from pathlib import Path
 
 import numpy as np
-import rerun as rr
+from testbed.recording.rerun_sdk import rr
 
 from testbed.interrupts import signals_held
 from testbed.metrics import value_text

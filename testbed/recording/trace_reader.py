@@ -18,7 +18,9 @@ def _chunks(path: Path):
     """The chunks of an `.rrd` in file order. A file without Rerun's footer (a long run, or one
     killed before its end) is read by a scan of the whole file, as `stream` does anyway: Rerun's
     warning that it has no manifest says nothing to our reader."""
-    from rerun.chunk import RrdReader
+    from testbed.recording.rerun_sdk import rr
+
+    RrdReader = rr.chunk.RrdReader
 
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="RRD file has no footer")

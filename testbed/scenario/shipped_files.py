@@ -9,28 +9,30 @@ path serves a checkout, an editable install and an installed wheel, from any wor
 from __future__ import annotations
 
 from pathlib import Path
-
-import mujoco
+from typing import TYPE_CHECKING
 
 from testbed.errors import InputError
+
+if TYPE_CHECKING:
+    import mujoco
 
 MODELS_DIR = Path(__file__).resolve().parents[1] / "models"
 SCENARIO_DIR = Path(__file__).resolve().parents[1] / "scenarios"
 
-INTEGRATORS = {
-    "Euler": mujoco.mjtIntegrator.mjINT_EULER,
-    "RK4": mujoco.mjtIntegrator.mjINT_RK4,
-    "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
-    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
-}
+# The scenario's integrator names and MuJoCo's enum members (MuJoCo is imported where a model is
+# built: `testbed list` reads the scenario files without it).
+INTEGRATORS = {"Euler": "mjINT_EULER", "RK4": "mjINT_RK4", "implicit": "mjINT_IMPLICIT",
+               "implicitfast": "mjINT_IMPLICITFAST"}
 
 
 def load_spec(file_name: str, timestep: float, integrator: str) -> mujoco.MjSpec:
     """models/<file_name> as an MjSpec, its timestep and integrator set (parameters are
     applied by the caller through the spec, never by editing the XML text)."""
+    import mujoco
+
     spec = mujoco.MjSpec.from_file(str(MODELS_DIR / file_name))
     spec.option.timestep = timestep
-    spec.option.integrator = INTEGRATORS[integrator]
+    spec.option.integrator = getattr(mujoco.mjtIntegrator, INTEGRATORS[integrator])
     return spec
 
 

@@ -35,7 +35,6 @@ from testbed.systems.cmg_cluster.arrays import rhombus_axes
 from testbed.systems.cmg_cluster.momentum_gauge import fibonacci_sphere, unit_axes
 from testbed.errors import InputError
 from testbed.math.validation import finite_number, positive_number
-from testbed.recording.trace import recording_to
 
 # Directions u closer than this (|g_i × u|) to a gimbal axis are skipped (see module doc).
 _AXIS_EPS = 1e-6
@@ -138,7 +137,9 @@ def write_envelope_rrd(path, alpha, h, n, axes=None) -> Path:
 
     Entities: envelope/external, envelope/internal/<pattern> (p = +1, m = -1), envelope/gimbal_axes.
     """
-    import rerun as rr  # deferred: the geometry above does not need the viewer SDK
+    # deferred: the geometry above does not need the viewer SDK
+    from testbed.recording.rerun_sdk import rr
+    from testbed.recording.trace import recording_to
 
     g = rhombus_gimbal_axes(alpha) if axes is None else unit_axes(axes)
     h = rotor_momenta(h, g.shape[0])
