@@ -9,6 +9,7 @@ import json
 import re
 import subprocess
 import sys
+import types
 import typing
 from pathlib import Path
 
@@ -47,7 +48,8 @@ def _keys(params_cls, path=""):
     keys = []
     for f in dataclasses.fields(params_cls):
         if f.init:
-            options = [t for t in typing.get_args(hints[f.name]) if t is not type(None)]
+            optional = typing.get_origin(hints[f.name]) in (typing.Union, types.UnionType)
+            options = [t for t in typing.get_args(hints[f.name]) if t is not type(None)] if optional else []
             if len(options) == 1 and dataclasses.is_dataclass(options[0]):  # an optional block
                 keys += [path + f.name] + _keys(options[0], f"{path}{f.name}.")
             elif dataclasses.is_dataclass(hints[f.name]):
