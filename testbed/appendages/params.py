@@ -132,7 +132,8 @@ class SloshParams:
     damping_ratio: float = param(0.0, ge=0, lt=1, doc="spring_mass: c / (2 sqrt(k m)) on each slide")
     slide_axes: list[list[float]] = param([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], doc=(
         "spring_mass: 1 to 3 mutually normal unit axes the mass slides along"))
-    initial_offsets_m: list[float] | None = param(None, doc="spring_mass: displacement along each slide axis at the start")
+    initial_offsets_m: list[float] | None = param(None, ge=-MAX_POSITION_M, le=MAX_POSITION_M, doc=(
+        "spring_mass: displacement along each slide axis at the start"))
     # pendulum
     length_m: float | None = param(None, gt=0, le=MAX_POSITION_M, doc="pendulum: pivot to mass")
     rod_axis: list[float] = param([0.0, 0.0, -1.0], length=3, doc="pendulum: unit direction pivot -> mass at rest")
