@@ -380,3 +380,29 @@ def test_a_cmg_bus_starts_its_panels_and_slosh_deflected():
     assert truth["panel_angle"] == pytest.approx(np.radians([4.0, 0.0]), abs=1e-15)
     assert truth["slosh_angle"] == pytest.approx(np.radians([5.0, -2.0]), abs=1e-15)
     assert truth["slosh_offset"] == pytest.approx([0.03, -0.01], abs=1e-15)
+
+
+def test_a_campaign_over_hinge_stiffness_and_damping_reads_them_back_from_the_model():
+    """Dispersed panel stiffness, damping and mass are read back from the compiled model (Plant.applied),
+    not taken on trust from the scenario: each case's values equal the drawn ones to 1e-12."""
+    import yaml as yaml_reader
+    from testbed.campaign.applied_values import applied_values
+    from testbed.campaign.cases import expand
+    from testbed.runner import prepare
+    from testbed.scenario.loading import parse
+    from testbed.scenario.shipped_files import SCENARIO_DIR
+    data = yaml_reader.safe_load((SCENARIO_DIR / "flexible_panels_free_decay.yaml").read_text())
+    data["sim"]["duration_s"] = 0.1
+    data["checks"] = {}
+    panel_path = "model.appendages.wings.1.panels.0"
+    data["sweep"] = {"seed": 4, "samples": 3, "dispersions": {
+        f"{panel_path}.stiffness_nm_rad": {"uniform": [30, 90]},
+        f"{panel_path}.damping_nms_rad": {"log_uniform": [0.1, 3]},
+        f"{panel_path}.mass_kg": {"normal": [24, 2]}}}
+    for case in expand(data):
+        scenario = parse(case.data)
+        plant, pipeline, _ = prepare(scenario)
+        read = applied_values(case.values, scenario, plant, pipeline.stages())
+        for path, value in case.values.items():
+            got, source = read[path]
+            assert source == "model" and got == pytest.approx(value, rel=1e-12), path

@@ -60,10 +60,10 @@ class PanelParams:
     mass_kg: float = param(gt=0, doc="the panel's mass")
     length_m: float = param(gt=0, le=MAX_POSITION_M, doc="hinge to outboard edge, along the span (the next panel's hinge)")
     width_m: float = param(1.0, gt=0, le=MAX_POSITION_M, doc="along the hinge axis (drawn; sets the default inertia)")
-    thickness_m: float = param(0.03, gt=0, le=MAX_POSITION_M, doc="drawn only")
+    thickness_m: float = param(0.03, gt=0, le=MAX_POSITION_M, doc="drawn; sets the default inertia")
     com_offset_m: float | None = param(None, ge=0, le=MAX_POSITION_M, doc="hinge line to CoM along the span; None: length_m / 2")
     inertia_kg_m2: list[float] | None = param(None, length=3, doc=(
-        "principal moments about the CoM along (span, hinge, normal); None: a thin uniform plate"))
+        "principal moments about the CoM along (span, hinge, normal); None: a uniform box of the panel's size"))
     stiffness_nm_rad: float = param(gt=0, doc="torsional spring of the hinge (MuJoCo joint stiffness)")
     damping_nms_rad: float = param(0.0, ge=0, doc="torsional damper of the hinge (MuJoCo joint damping)")
     range_deg: list[float] | None = param(None, length=2, ge=-180, le=180, doc="hinge stops [low, high]; None: free")
@@ -75,11 +75,13 @@ class PanelParams:
 
     def inertia(self) -> np.ndarray:
         """Principal moments about the CoM along (span, hinge, normal) [kg m^2]: the given ones, or
-        a thin plate's m (b^2, a^2, a^2 + b^2) / 12 (a = length, b = width)."""
+        a uniform box's m (b^2 + t^2, a^2 + t^2, a^2 + b^2) / 12 (a = length, b = width, t =
+        thickness; a plate of no thickness would sit on the triangle inequality's edge, which
+        MuJoCo's compiler refuses at round-off)."""
         if self.inertia_kg_m2 is not None:
             return np.asarray(self.inertia_kg_m2, float)
-        a, b = self.length_m, self.width_m
-        return self.mass_kg * np.array([b * b, a * a, a * a + b * b]) / 12.0
+        a, b, t = self.length_m, self.width_m, self.thickness_m
+        return self.mass_kg * np.array([b * b + t * t, a * a + t * t, a * a + b * b]) / 12.0
 
     def hinge_inertia(self) -> float:
         """J = I_hinge + m d^2: the panel's inertia about its own hinge line [kg m^2]."""
