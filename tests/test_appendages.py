@@ -307,6 +307,10 @@ GOOD_WING = wing([0, 0.7, 0], [0, 1, 0], [panel()])
     ({"slosh": [{"model": "spring_mass", "mass_kg": 5, "position_m": [0, 0, 0], "frequency_hz": 1,
                  "slide_axes": [[1, 0, 0], [0.7071, 0.7071, 0]]}]}, "model.appendages.slosh[0].slide_axes[1]", "normal"),
     ({"slosh": [{"model": "sloshy", "mass_kg": 5, "position_m": [0, 0, 0]}]}, "model.appendages.slosh[0].model", "one of"),
+    ({"slosh": [{"model": "pendulum", "mass_kg": 5, "position_m": [0, 0, 0], "length_m": 1, "damping_ratio": 0.1}]},
+     "model.appendages.slosh[0].damping_ratio", "not a field of a pendulum"),
+    ({"slosh": [{"model": "spring_mass", "mass_kg": 5, "position_m": [0, 0, 0], "frequency_hz": 1,
+                 "initial_angles_deg": [3, 0]}]}, "model.appendages.slosh[0].initial_angles_deg", "not a field of a spring_mass"),
 ])
 def test_bad_appendages_are_refused_naming_the_field(appendages, field, words):
     with pytest.raises(InputError) as caught:

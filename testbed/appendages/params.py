@@ -144,6 +144,12 @@ class SloshParams:
         "pendulum: the rod's angles about its two hinge axes at the start"))
 
     def validate(self, path: str) -> None:
+        defaults = SloshParams(model=self.model, mass_kg=self.mass_kg, position_m=self.position_m)
+        other = {"spring_mass": ("damping_nms_rad", "rod_axis", "initial_angles_deg"),
+                 "pendulum": ("damping_ratio", "slide_axes", "initial_offsets_m")}[self.model]
+        for name in other:  # a field of the other model, given: a mistake, not to be ignored
+            if getattr(self, name) != getattr(defaults, name):
+                raise InputError(join(path, name), f"is not a field of a {self.model} slosh model")
         if self.model == "spring_mass":
             if self.frequency_hz is None:
                 raise InputError(join(path, "frequency_hz"), "a spring_mass slosh model needs its frequency")
