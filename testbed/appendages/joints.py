@@ -11,7 +11,7 @@ import numpy as np
 
 PANEL_JOINT = re.compile(r"wing(\d+)_panel(\d+)")
 SLOSH_JOINT = re.compile(r"slosh\d+_[abc]")
-APPENDAGE_BODY = re.compile(r"wing\d+_panel\d+|slosh\d+")
+APPENDAGE_BODY = re.compile(r"wing\d+_panel\d+|slosh\d+(_bob)?")
 PANEL_SIGNAL, SLOSH_ANGLE_SIGNAL, SLOSH_OFFSET_SIGNAL = "panel_angle", "slosh_angle", "slosh_offset"
 
 
@@ -97,8 +97,10 @@ class AppendageJoints:
         return values
 
     def hinge_signals(self) -> dict[str, tuple[str, int]]:
-        """Hinge joint name -> (recorded signal, column) for the 3D view (recording.scene.moving_parts)."""
-        return {name: (f"truth/{PANEL_SIGNAL}", i) for i, name in enumerate(self.panel_names)}
+        """Hinge joint name -> (recorded signal, column) for the 3D view (recording.scene.moving_parts):
+        the panels and the pendulums' pivots and bobs (the spring-masses are drawn at rest)."""
+        panels = {name: (f"truth/{PANEL_SIGNAL}", i) for i, name in enumerate(self.panel_names)}
+        return panels | {name: (f"truth/{SLOSH_ANGLE_SIGNAL}", i) for i, name in enumerate(self.slosh_hinge_names)}
 
 
 def free_spinner_axis(model: mujoco.MjModel, body: int) -> np.ndarray | None:
