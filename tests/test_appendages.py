@@ -412,3 +412,22 @@ def test_a_campaign_over_hinge_stiffness_and_damping_reads_them_back_from_the_mo
         for path, value in case.values.items():
             got, source = read[path]
             assert source == "model" and got == pytest.approx(value, rel=1e-12), path
+
+
+def test_only_unpowered_wheels_spin_freely_out_of_the_rigid_part():
+    """free_spinner_axis: a reaction wheel (a plain motor) spins freely; a wheel with bearing friction,
+    a CMG's gimbal (servo) and rotor (speed loop) and a panel (spring) do not."""
+    from testbed.appendages.joints import free_spinner_axis
+    from testbed.systems.cmg_cluster.model import CmgClusterParams, build as build_cluster
+    params = params_of({"wings": [wing([0, 0.7, 0], [0, 1, 0], [panel()])]})
+    model = build(params, 0.01, "RK4")
+    for i, axis in enumerate(params.axes()):
+        assert free_spinner_axis(model, model.body(f"wheel{i + 1}").id) == pytest.approx(axis, abs=1e-15)
+    assert free_spinner_axis(model, model.body("wing1_panel1").id) is None
+    rubbing = params_of({"wings": [wing([0, 0.7, 0], [0, 1, 0], [panel()])]},
+                        BUS | {"wheel": {"viscous_friction_nms_rad": 1e-4}})
+    rubbing_model = build(rubbing, 0.01, "RK4")
+    assert free_spinner_axis(rubbing_model, rubbing_model.body("wheel1").id) is None
+    cluster = build_cluster(load(CmgClusterParams, {}, "model"), 0.001)
+    assert all(free_spinner_axis(cluster, cluster.body(name).id) is None
+               for name in ("gimbal1", "rotor1", "gimbal4", "rotor4"))
