@@ -133,8 +133,9 @@ class FreeBus:
                                         - np.outer(com_body, com_body))
 
     def com_offset_body(self, data):
-        """System CoM relative to the bus origin, in bus axes [m] (the bus's own CoM `com_m` and
-        every part's mass at its place); reads the kinematics stored in data (see refresh)."""
+        """System CoM relative to the bus origin, in bus axes [m] (the bus's own CoM `com_m`, every
+        part's mass at its place, and the panels and slosh masses as they move); reads the
+        kinematics stored in data (see refresh)."""
         rot = data.xmat[self.bus_body_id].reshape(3, 3)
         return rot.T @ (data.subtree_com[self.bus_body_id] - data.xpos[self.bus_body_id])
 
