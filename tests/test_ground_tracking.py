@@ -184,7 +184,7 @@ def test_in_the_loop_the_boresight_is_on_the_line_of_sight_from_the_true_positio
     true position truth/orbit_position to the target computed here (WGS-84 formula, erfa.c2t06a).
     The boresight's error is part of the attitude's, so it is at most max_target_error_deg plus
     the two lines of sight's disagreement (< 2e-7 rad, above): 1e-5 deg of slack. The loop holds
-    the target within 0.002 deg (measured 5.7e-4 deg: the 0.1 s control period's lag)."""
+    the target within 0.002 deg (measured 5.7e-4 deg)."""
     data = _imaging_pass()
     data["pipeline"]["sensor"] = {"type": "ideal_attitude"}
     data["pipeline"]["estimator"] = {"type": "attitude"}

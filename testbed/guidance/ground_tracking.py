@@ -37,7 +37,7 @@ from testbed.guidance.line_of_sight_frame import look_frame
 from testbed.guidance.program_trajectory import ProgramTrajectory
 from testbed.guidance.tracking_law import TrackingLaw
 from testbed.math.cross import cross3
-from testbed.math.quaternion import quat_conj, quat_mul, quat_rotate, rotation_vector
+from testbed.math.quaternion import quat_conj, quat_rotate, rotation_vector
 from testbed.math.validation import unit_quaternion
 from testbed.orbit.constants import MU_EARTH_M3_S2
 from testbed.orbit.gravity import acceleration
