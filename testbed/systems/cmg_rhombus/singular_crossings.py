@@ -5,9 +5,10 @@ directions u (momentum_envelope.singular_momenta; Kurokawa 2007, J. Guid. Contro
 section II). It meets the ray t d (t > 0) where the two components of H(u, ε) normal to d vanish:
 two equations in the two angles of u, solved from many starting directions (SciPy's `root`).
 A crossing is isolated when those two equations are transversal there (their 2 x 2 Jacobian in the
-angles of u is regular); where a surface holds a whole segment of the ray (a degenerate set) the
-Jacobian is singular and the solutions spread along the segment. The gimbal angles of a singular state follow from its
-per-unit momenta (`gimbal_angles`), so the compiled model can check it (H and sqrt det J J^T).
+plane tangent to the sphere at u is regular); where a surface holds a whole segment of the ray (a
+degenerate set) the Jacobian is singular and the solutions spread along the segment. The gimbal
+angles of a singular state follow from its per-unit momenta (`gimbal_angles`), so the compiled
+model can check it (H and sqrt det J J^T).
 Results: docs/theory/momentum-envelope.md ("Singular surfaces of the pyramid and the box").
 """
 
@@ -24,7 +25,7 @@ from testbed.systems.cmg_rhombus.momentum_gauge import fibonacci_sphere, unit_ax
 CONVERGED = 1e-11     # |H normal to d| / h_max at an accepted solution (the solver reaches ~1e-15)
 SAME_POINT = 1e-7     # two solutions whose t differ by less (share of h_max) are one crossing
 TRANSVERSAL = 1e-5    # least singular value of the 2 x 2 Jacobian [h_max / rad] of an isolated crossing
-AXIS_CLEARANCE = 1e-4  # solutions with u this close to a gimbal axis (|g_i x u|) are dropped
+AXIS_CLEARANCE = 1e-4  # u this close to a gimbal axis (|g_i x u|) is no solution: h_i undetermined
 
 
 @dataclass(frozen=True)
