@@ -62,7 +62,7 @@ def test_pyramid_axis_crossings_are_the_closed_forms(skew_deg):
             else:
                 assert 0.9 * 2 * c < crossing.distance < 2 * c, (name, pattern, crossing.distance)
             H, measure, got = on_model(g, crossing, axis)
-            np.testing.assert_allclose(H, crossing.distance * axis, atol=1e-12)
+            np.testing.assert_allclose(H, crossing.distance * axis, rtol=0, atol=1e-12)
             assert measure < 1e-6, (name, pattern, measure)
             assert got == kind, (name, pattern, got)
 
@@ -80,6 +80,6 @@ def test_box_axis_crossings():
     for crossing in inner:
         H, measure, kind = on_model(g, crossing, Z)
         assert kind == DEGENERATE and measure < 1e-6
-        np.testing.assert_allclose(H, [0.0, 0.0, 2.0], atol=1e-12)
+        np.testing.assert_allclose(H, [0.0, 0.0, 2.0], rtol=0, atol=1e-12)
     side = ray_crossings(X, (1, -1, -1, -1), g.gimbal_axes, 1.0, STARTS)
     assert side and all(abs(c.distance - 2.0) < 1e-9 and on_model(g, c, X)[1] < 1e-6 for c in side)
