@@ -17,6 +17,7 @@ docs/theory/momentum-envelope.md, "Singular surfaces of the pyramid and the box"
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
 import sys
 from pathlib import Path
@@ -64,17 +65,16 @@ def axis_crossings(geometry, axis) -> list[dict]:
     """Every isolated crossing of every surface with the positive `axis`: distance / h, the units
     against u, the compiled model's H and sqrt det there, Bedrossian's type and the gimbal angles."""
     rows = []
-    for pattern in singular_surface_points(None, 8, 1.0, geometry.gimbal_axes):
-        for signs in (pattern, tuple(-s for s in pattern)):
-            for c in ray_crossings(axis, signs, geometry.gimbal_axes, 1.0, STARTS):
-                if not c.isolated:
-                    continue
-                beta = gimbal_angles(c.unit_momenta, geometry.spin_axes_zero, geometry.turn_axes)
-                H = geometry.momentum(beta)
-                kind = singularity_type(geometry.unit_jacobian(beta), geometry.unit_jacobian_derivative(beta), H)
-                rows.append({"distance": c.distance, "against": against(signs), "pattern": signs,
-                             "model_H": H, "measure": geometry.singularity_measure(beta),
-                             "kind": KIND_NAMES[kind.kind], "beta_deg": np.degrees(beta)})
+    for signs in itertools.product((1, -1), repeat=len(geometry.gimbal_axes)):  # e and -e: one surface
+        for c in ray_crossings(axis, signs, geometry.gimbal_axes, 1.0, STARTS):
+            if not c.isolated:
+                continue
+            beta = gimbal_angles(c.unit_momenta, geometry.spin_axes_zero, geometry.turn_axes)
+            H = geometry.momentum(beta)
+            kind = singularity_type(geometry.unit_jacobian(beta), geometry.unit_jacobian_derivative(beta), H)
+            rows.append({"distance": c.distance, "against": against(signs), "pattern": signs,
+                         "model_H": H, "measure": geometry.singularity_measure(beta),
+                         "kind": KIND_NAMES[kind.kind], "beta_deg": np.degrees(beta)})
     rows.sort(key=lambda r: -r["distance"])
     unique = []
     for r in rows:  # a crossing reached from two patterns (a degenerate state) is listed once
