@@ -35,7 +35,7 @@ def test_pinv_stays_on_the_singular_start_and_osr_leaves_it():
     assert pinv.metrics["torque_error_rel"] == pytest.approx(1.0, abs=1e-9)
     assert pinv.metrics["peak_gimbal_rate_deg_s"] < 1e-6
     _, held = pinv.trace["truth/cmg_momentum"]
-    np.testing.assert_allclose(held, np.broadcast_to([2 * H * 0.6, 0.0, 0.0], held.shape), atol=1e-9 * H)
+    np.testing.assert_allclose(held, np.broadcast_to([2 * H * 0.6, 0.0, 0.0], held.shape), rtol=0, atol=1e-9 * H)
 
     osr = flown("osr")
     t, measure = osr.trace["allocator/singularity"]
@@ -53,3 +53,35 @@ def test_pinv_stays_on_the_singular_start_and_osr_leaves_it():
     given = 800.0 * omega[-1, 0]
     demanded = -TORQUE * (STOP_S - escape_s)
     assert given < 0 and abs(given - demanded) <= 0.05 * abs(demanded), (given, demanded)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("overrides, torque", [
+    # not shipped: the 54.74 deg pyramid, h = 40 N m s on a lighter bus, the same 0.2 h/s along +x
+    (["model.array.skew_deg=54.7356", "model.rotor_momentum_nms=40", "model.inertia_kg_m2=[300, 500, 400]",
+      "pipeline.law.offset=[-8, 0, 0]"], 8.0),
+    # not shipped: the demand the other way along u, towards the origin
+    (["pipeline.law.offset=[5, 0, 0]"], -5.0),
+])
+def test_the_escape_on_cases_not_shipped(overrides, torque):
+    """The same comparison off the shipped case: pinv delivers nothing (torque_error_rel = 1), osr
+    leaves the singular set within 5 s (measured 3.15 s, and 0.85 s along -u) and then, once
+    sqrt det >= 0.8, delivers the demand to 1e-3 of it. (On the lighter bus the body turns at up to
+    0.13 rad/s and the reduced model's rate differs by 1.8e-7 rad/s, beyond the shipped 1e-8: not
+    asserted here.)"""
+    for law in ("pinv", "osr"):
+        result = run_scenario(load_scenario("pyramid_singular_escape",
+                                            [*overrides, f"pipeline.allocator.type={law}"]), None, keep_data=True)
+        assert result.status == "ok", result.error
+        t, measure = result.trace["allocator/singularity"]
+        measure = measure.ravel()
+        if law == "pinv":
+            assert result.metrics["torque_error_rel"] == pytest.approx(1.0, abs=1e-9)
+            assert measure.max() < 1e-9  # the servos hold the angles: sqrt det drifts to ~2e-12
+            continue
+        assert measure.max() >= 0.1 and t[np.argmax(measure >= 0.1)] <= 5.0
+        _, wanted = result.trace["law/torque"]
+        _, delivered = result.trace["allocator/torque_delivered"]
+        after = (measure >= 0.8) & (t < STOP_S - 0.05)
+        assert after.sum() > 20
+        np.testing.assert_allclose(delivered[after], wanted[after], rtol=0, atol=1e-3 * abs(torque))
