@@ -28,8 +28,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a checkout, uninstalled
 from testbed.steering.singularity_type import KIND_NAMES, singularity_type  # noqa: E402
 from testbed.systems.cmg_cluster.envelope_command import cluster_of_array  # noqa: E402
-from testbed.systems.cmg_rhombus.momentum_envelope import singular_surface_points  # noqa: E402
-from testbed.systems.cmg_rhombus.singular_crossings import gimbal_angles, ray_crossings  # noqa: E402
+from testbed.systems.cmg_cluster.momentum_envelope import singular_surface_points  # noqa: E402
+from testbed.systems.cmg_cluster.singular_crossings import gimbal_angles, ray_crossings  # noqa: E402
 
 FIGURE = ROOT / "docs" / "theory" / "singular_surfaces.svg"
 PYRAMID_SKEW_DEG = math.degrees(math.acos(1.0 / math.sqrt(3.0)))  # 54.7356 deg

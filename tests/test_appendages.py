@@ -269,8 +269,8 @@ def test_the_reduced_cmg_model_counts_the_appendages_at_rest():
     """A CMG cluster with a wing and a slosh mass: the reduced model's locked inertia (the panels
     held at rest) is MuJoCo's mass matrix moved to the CoM at rest, 1e-12."""
     from testbed.systems.cmg_cluster.model import CmgClusterParams, build as build_cluster
-    from testbed.systems.cmg_rhombus.plant import CmgRhombus
-    from testbed.systems.cmg_rhombus.reduced_model import CmgMassModel
+    from testbed.systems.cmg_cluster.plant import CmgRhombus
+    from testbed.systems.cmg_cluster.reduced_model import CmgMassModel
     appendages = {"wings": [wing([0.3, 0.9, 0.1], [0.0, 1.0, 0.0], [panel(), panel(10.0, 1.0, 20.0)], [1, 0, 0])],
                   "slosh": [{"model": "pendulum", "mass_kg": 30.0, "position_m": [0.1, 0.0, 0.2], "length_m": 0.3}]}
     params = load(CmgClusterParams, {"appendages": appendages}, "model")

@@ -1,5 +1,5 @@
 """Where the pyramid's and the box's singular surfaces cross the x and z axes
-(testbed/systems/cmg_rhombus/singular_crossings.py; docs/theory/momentum-envelope.md, "Singular
+(testbed/systems/cmg_cluster/singular_crossings.py; docs/theory/momentum-envelope.md, "Singular
 surfaces of the pyramid and the box"): each crossing the root finder gives is checked against a
 closed form, against the compiled model (H and sqrt det J J^T at the gimbal angles it gives) and
 typed by Bedrossian's test, on the published skews and on one that is not (40 deg)."""
@@ -13,7 +13,7 @@ import pytest
 
 from testbed.steering.singularity_type import DEGENERATE, ELLIPTIC, HYPERBOLIC, singularity_type
 from testbed.systems.cmg_cluster.envelope_command import cluster_of_array
-from testbed.systems.cmg_rhombus.singular_crossings import gimbal_angles, ray_crossings
+from testbed.systems.cmg_cluster.singular_crossings import gimbal_angles, ray_crossings
 
 X, Z = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0])
 STARTS = 150  # solver starts per surface: every crossing below is found from many of them

@@ -10,7 +10,7 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.pipeline import stage_info
-from testbed.systems.cmg_rhombus.momentum_gauge import support_extremes
+from testbed.systems.cmg_cluster.momentum_gauge import support_extremes
 
 
 @dataclass(frozen=True)

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import root
 
-from testbed.systems.cmg_rhombus.momentum_envelope import singular_momenta
-from testbed.systems.cmg_rhombus.momentum_gauge import fibonacci_sphere, unit_axes
+from testbed.systems.cmg_cluster.momentum_envelope import singular_momenta
+from testbed.systems.cmg_cluster.momentum_gauge import fibonacci_sphere, unit_axes
 
 CONVERGED = 1e-11     # |H normal to d| / h_max at an accepted solution (the solver reaches ~1e-15)
 SAME_POINT = 1e-7     # two solutions whose t differ by less (share of h_max) are one crossing
