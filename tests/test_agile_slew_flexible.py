@@ -12,16 +12,16 @@ loop's), whose frequencies and damping come from the linear model, not from the 
 
 from __future__ import annotations
 
-import mujoco
 import numpy as np
 import pytest
 
 from testbed.appendages.closed_form import RigidPart, planar_parts
-from testbed.appendages.joints import is_appendage
+from testbed.appendages.joints import rigid_mass
 from testbed.runner import run_scenario
 from testbed.scenario.loading import load_scenario
 from testbed.shaping.shapers import residual_vibration, shaper_for
 from testbed.systems.cmg_cluster.model import build
+from testbed.systems.free_bus import BUS_BODY
 
 UNSHAPED, SHAPED, CAMPAIGN = "agile_slew_flexible", "agile_slew_flexible_shaped", "agile_slew_flexible_campaign"
 FIT_WINDOW_S = 40.0
@@ -32,33 +32,14 @@ FIT_WINDOW_S = 40.0
 RATIO_BAND = 0.015
 
 
-def rigid_part(model: mujoco.MjModel) -> RigidPart:
-    """The bus and its CMG units as one rigid body at rest: mass, CoM and inertia summed from the
-    compiled model's bodies (mass properties only), the panels left out."""
-    data = mujoco.MjData(model)
-    mujoco.mj_kinematics(model, data)
-    masses, coms, tensors = [], [], []
-    for body in range(1, model.nbody):
-        if is_appendage(model, body):
-            continue
-        frame = data.ximat[body].reshape(3, 3)
-        masses.append(model.body_mass[body])
-        coms.append(data.xipos[body].copy())
-        tensors.append(frame @ np.diag(model.body_inertia[body]) @ frame.T)
-    mass = float(sum(masses))
-    com = sum(m * c for m, c in zip(masses, coms)) / mass
-    inertia = sum(tensors) + sum(m * ((c - com) @ (c - com) * np.eye(3) - np.outer(c - com, c - com))
-                                 for m, c in zip(masses, coms))
-    return RigidPart(mass, com, inertia)
-
-
 def closed_loop_poles(name: str, overrides=()) -> tuple[complex, complex]:
     """(coupled mode, attitude loop): the closed-loop poles with Im > 0 of the planar model of
     `name` under the slew law's PD about z. The attitude loop's is the one that moves the bus most
     against the panels; the coupled mode the elastic one that moves the bus most (with two alike
     wings, the mode in which they swing alike; the other leaves the bus's angle still)."""
     scenario = load_scenario(name, list(overrides))
-    rigid = rigid_part(build(scenario.model, scenario.sim.dt_s))
+    model = build(scenario.model, scenario.sim.dt_s)
+    rigid = RigidPart(*rigid_mass(model, model.body(BUS_BODY).id))  # the bus and its CMGs, mass properties
     mass_b, levers, inertias, stiffness, damping = planar_parts(rigid, scenario.model.appendages.wings)
     momentum = np.einsum("b,bij->ij", mass_b, levers)
     mass = np.diag(inertias) + np.einsum("b,bki,bkj->ij", mass_b, levers, levers) - momentum.T @ momentum / mass_b.sum()

@@ -113,6 +113,7 @@ def test_s_curve_acceleration_spectrum_is_the_closed_form():
 @pytest.mark.parametrize("fields, field", [({"profile": "versine", "final_rate_deg_s": [0, 0, 1]}, "pipeline.law.profile"),
                                            ({"jerk_fraction": 0.7, "coast_fraction": 0.5}, "pipeline.law.coast_fraction"),
                                            ({"profile": "wobble"}, "pipeline.law.profile"),
+                                           ({"profile": "s_curve", "jerk_fraction": 1e-4}, "pipeline.law.jerk_fraction"),
                                            ({"shaper": {"type": "zv", "frequency_hz": [0.3], "damping_ratio": [1.2]}},
                                             "pipeline.law.shaper.damping_ratio[0]"),
                                            ({"settle_rate_deg_s": 0.01, "final_rate_deg_s": [0, 1, 0]},

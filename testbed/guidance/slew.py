@@ -67,7 +67,8 @@ class SlewParams:
     damping_ratio: float = param(0.9, ge=0, doc="tracking-error damping ratio")
     profile: Literal["cubic", "versine", "s_curve"] = param("cubic", doc="rest-to-rest angle profile "
                                                               "(docs/theory/slew-and-settle.md)")
-    jerk_fraction: float = param(0.5, gt=0, le=1, doc="s_curve: share of T spent in the four jerk ramps")
+    # ramps shorter than a thousandth of T are a step: the jerk's 1/ramp scale would drown the profile's precision
+    jerk_fraction: float = param(0.5, ge=1e-3, le=1, doc="s_curve: share of T spent in the four jerk ramps")
     coast_fraction: float = param(0.0, ge=0, lt=1, doc="s_curve: share of T coasting at the peak rate")
     shaper: ShaperParams | None = param(None, doc="input shaper of the program (absent: none)")
     settle_pointing_deg: float | None = param(None, gt=0, doc="pointing bound of the settling metric (absent: "
