@@ -6,9 +6,10 @@ rates initial_rate_deg_s and final_rate_deg_s (eq. 3, 10-13; rest to rest by def
 eigen-axis slew). A rest-to-rest slew may follow a smooth `profile` (versine, s-curve) and an
 input `shaper` (ZV, ZVD at given modes), which lengthens it by the shaper's duration
 (testbed.guidance.rest_to_rest_profiles, testbed.shaping.shapers); `settle_pointing_deg` and
-`settle_rate_deg_s` ask for the settling metrics (testbed.guidance.settling_metrics). The wanted torque is the program torque M* (eq. 9) plus quaternion PD
-feedback with gyroscopic compensation (testbed.guidance.tracking_law), designed on the
-locked system inertia ctx.inertia. Before start_s the program holds q0 (rest start);
+`settle_rate_deg_s` ask for the settling metrics (testbed.guidance.settling_metrics). The
+wanted torque is the program torque M* (eq. 9) plus quaternion PD feedback with gyroscopic
+compensation (testbed.guidance.tracking_law), designed on the locked system inertia
+ctx.inertia. Before start_s the program holds q0 (rest start);
 after the slew it holds qT (or spins on at the final rate).
 
 Records `law/torque`, the program `program_quat`, `program_omega`, `program_torque`, and the
@@ -52,7 +53,7 @@ class ShaperParams:
     damping_ratio: list[float] = param(doc="the modes' damping ratios, one per frequency, in [0, 1)")
 
     def validate(self, path: str) -> None:
-        self.shaper = shaper_for(self.type, self.frequency_hz, self.damping_ratio, path)
+        self.impulses = shaper_for(self.type, self.frequency_hz, self.damping_ratio, path)
 
 
 @dataclass(kw_only=True)
@@ -93,7 +94,7 @@ class SlewParams:
         """The profile and shaper of the scenario (None: the cubic of SEEDS §004, unshaped)."""
         if self.profile == "cubic" and self.shaper is None:
             return None
-        return RestToRestProfile(self.profile, self.duration_s, NO_SHAPER if self.shaper is None else self.shaper.shaper,
+        return RestToRestProfile(self.profile, self.duration_s, NO_SHAPER if self.shaper is None else self.shaper.impulses,
                                  self.jerk_fraction, self.coast_fraction)
 
 
