@@ -222,14 +222,17 @@ class Plant:
     def applied(self) -> dict:
         """Scenario fields as this plant runs them, by dotted path, read back from the compiled
         model and the state `initialise` left (testbed.campaign.applied_values compares them with what a
-        campaign drew): the step and integrator, the initial rate and attitude of the bus, and
-        what the bus read-outs add (`FreeBus.applied`). A system adds its own fields."""
+        campaign drew): the step and integrator, the initial rate and attitude of the bus, the
+        panels' mass, stiffness and damping, and what the bus read-outs add (`FreeBus.applied`).
+        A system adds its own fields."""
         omega = self.omega()
         values = {"sim.dt_s": float(self.model.opt.timestep),
                   "sim.integrator": INTEGRATOR_NAMES[int(self.model.opt.integrator)],
                   "initial.omega_rad_s": omega.tolist(), "initial.omega_deg_s": np.degrees(omega).tolist(),
                   "initial.quat": self.quat().tolist()}
         bus_values = getattr(self.bus, "applied", None)
+        if self.appendages is not None:
+            values |= self.appendages.applied(self.model)
         return values | (bus_values() if bus_values is not None else {})
 
     def scene(self) -> dict:

@@ -307,6 +307,10 @@ GOOD_WING = wing([0, 0.7, 0], [0, 1, 0], [panel()])
     ({"slosh": [{"model": "spring_mass", "mass_kg": 5, "position_m": [0, 0, 0], "frequency_hz": 1,
                  "slide_axes": [[1, 0, 0], [0.7071, 0.7071, 0]]}]}, "model.appendages.slosh[0].slide_axes[1]", "normal"),
     ({"slosh": [{"model": "sloshy", "mass_kg": 5, "position_m": [0, 0, 0]}]}, "model.appendages.slosh[0].model", "one of"),
+    ({"slosh": [{"model": "pendulum", "mass_kg": 5, "position_m": [0, 0, 0], "length_m": 1, "damping_ratio": 0.1}]},
+     "model.appendages.slosh[0].damping_ratio", "not a field of a pendulum"),
+    ({"slosh": [{"model": "spring_mass", "mass_kg": 5, "position_m": [0, 0, 0], "frequency_hz": 1,
+                 "initial_angles_deg": [3, 0]}]}, "model.appendages.slosh[0].initial_angles_deg", "not a field of a spring_mass"),
 ])
 def test_bad_appendages_are_refused_naming_the_field(appendages, field, words):
     with pytest.raises(InputError) as caught:
@@ -319,30 +323,20 @@ def test_the_trace_draws_the_panels_turning_with_their_recorded_angles(tmp_path)
     world/bus/wingN_panel1 whose transform at every sample is MuJoCo's pose of the panel in the bus
     frame at the recorded hinge angle (1e-6: the trace stores float32), and the angle swings."""
     import testbed
-    from test_trace_scene import components
+    from test_trace_scene import components, hinged_frame_follows_mujoco
     from testbed.recording.trace_reader import read_signals
     path = tmp_path / "panels.rrd"
     overrides = ["sim.duration_s=6", "checks={}"]
     assert testbed.run("flexible_panels_free_decay", out=path, overrides=overrides).status == "ok"
     scenario = testbed.load("flexible_panels_free_decay", overrides)
     model = build(scenario.model, scenario.sim.dt_s, "RK4")
-    data = mujoco.MjData(model)
     _, angles = read_signals(path)["truth/panel_angle"]
     assert np.ptp(angles[:, 0]) > np.radians(5.0)  # it swings +-3 deg
     for w in range(2):
         name = f"wing{w + 1}_panel1"
-        frame = components(path, f"world/bus/{name}")
-        quats = np.array([q[0] for q in frame["Transform3D:quaternion"]])[:, [3, 0, 1, 2]]
-        translations = np.array([p[0] for p in frame["Transform3D:translation"]])
-        assert len(quats) == len(angles)
+        hinged_frame_follows_mujoco(path, f"world/bus/{name}", model, name, angles[:, w],
+                                    np.linspace(0, len(angles) - 1, 7).astype(int))
         assert len(components(path, f"world/bus/{name}/boxes")["Boxes3D:half_sizes"]) >= 1
-        for k in np.linspace(0, len(angles) - 1, 7).astype(int):
-            data.qpos[:] = model.qpos0
-            data.qpos[model.joint(name).qposadr[0]] = angles[k, w]
-            mujoco.mj_kinematics(model, data)
-            np.testing.assert_allclose(translations[k], data.xpos[model.body(name).id], atol=1e-6)
-            expected = data.xquat[model.body(name).id]
-            np.testing.assert_allclose(quats[k] * np.sign(quats[k] @ expected), expected, atol=1e-6)
 
 
 def test_the_fastest_mode_bounds_the_step_and_a_stiff_panel_is_refused(tmp_path, capsys):
@@ -368,3 +362,51 @@ def test_the_fastest_mode_bounds_the_step_and_a_stiff_panel_is_refused(tmp_path,
     err = capsys.readouterr().err.strip()
     assert status == 2 and len(err.splitlines()) == 1 and err.startswith("error: sim.dt_s:"), err
     assert "fastest appendage mode" in err and "Traceback" not in err and not out.exists()
+
+
+def test_a_cmg_bus_starts_its_panels_and_slosh_deflected():
+    """cmg_cluster's plant resets to its keyframe (appendages at rest), then deflects them as the
+    scenario says: the recorded deflections at t = 0 are the given ones, to round-off."""
+    from testbed.systems.cmg_cluster import CmgClusterParams, make_plant
+
+    class Sim:
+        dt_s, integrator, control_period_s, end_time_s = 0.001, "RK4", 0.01, 1.0
+
+    appendages = {"wings": [wing([0.0, 0.9, 0.0], [0.0, 1.0, 0.0], [panel(initial_angle_deg=4.0), panel(10.0, 1.0, 20.0)],
+                                 [1, 0, 0])],
+                  "slosh": [{"model": "pendulum", "mass_kg": 30.0, "position_m": [0, 0, 0.2], "length_m": 0.3,
+                             "initial_angles_deg": [5.0, -2.0]},
+                            {"model": "spring_mass", "mass_kg": 20.0, "position_m": [0, 0, -0.2], "frequency_hz": 0.3,
+                             "initial_offsets_m": [0.03, -0.01]}]}
+    plant = make_plant(load(CmgClusterParams, {"appendages": appendages}, "model"), Sim)
+    plant.initialise(Initial((0.0, 0.0, 0.0)))
+    truth = plant.truth()
+    assert truth["panel_angle"] == pytest.approx(np.radians([4.0, 0.0]), abs=1e-15)
+    assert truth["slosh_angle"] == pytest.approx(np.radians([5.0, -2.0]), abs=1e-15)
+    assert truth["slosh_offset"] == pytest.approx([0.03, -0.01], abs=1e-15)
+
+
+def test_a_campaign_over_hinge_stiffness_and_damping_reads_them_back_from_the_model():
+    """Dispersed panel stiffness, damping and mass are read back from the compiled model (Plant.applied),
+    not taken on trust from the scenario: each case's values equal the drawn ones to 1e-12."""
+    import yaml as yaml_reader
+    from testbed.campaign.applied_values import applied_values
+    from testbed.campaign.cases import expand
+    from testbed.runner import prepare
+    from testbed.scenario.loading import parse
+    from testbed.scenario.shipped_files import SCENARIO_DIR
+    data = yaml_reader.safe_load((SCENARIO_DIR / "flexible_panels_free_decay.yaml").read_text())
+    data["sim"]["duration_s"] = 0.1
+    data["checks"] = {}
+    panel_path = "model.appendages.wings.1.panels.0"
+    data["sweep"] = {"seed": 4, "samples": 3, "dispersions": {
+        f"{panel_path}.stiffness_nm_rad": {"uniform": [30, 90]},
+        f"{panel_path}.damping_nms_rad": {"log_uniform": [0.1, 3]},
+        f"{panel_path}.mass_kg": {"normal": [24, 2]}}}
+    for case in expand(data):
+        scenario = parse(case.data)
+        plant, pipeline, _ = prepare(scenario)
+        read = applied_values(case.values, scenario, plant, pipeline.stages())
+        for path, value in case.values.items():
+            got, source = read[path]
+            assert source == "model" and got == pytest.approx(value, rel=1e-12), path

@@ -76,6 +76,25 @@ def components(path, entity: str) -> dict[str, list]:
     return out
 
 
+def hinged_frame_follows_mujoco(path, entity: str, model, name: str, angles, rows) -> np.ndarray:
+    """Assert that the trace's transform of `entity` (a body `name` on its hinge `name`, directly on
+    the bus) at each of `rows` is MuJoCo's pose at the recorded hinge angle, the bus at the origin
+    (1e-6: the trace stores float32); return its quaternions (w, x, y, z), one per sample."""
+    frame = components(path, entity)
+    quats = np.array([q[0] for q in frame["Transform3D:quaternion"]])[:, [3, 0, 1, 2]]
+    translations = np.array([p[0] for p in frame["Transform3D:translation"]])
+    assert quats.shape == (len(angles), 4) and translations.shape == (len(angles), 3)
+    data = mujoco.MjData(model)
+    for k in rows:
+        data.qpos[:] = model.qpos0
+        data.qpos[model.joint(name).qposadr[0]] = angles[k]
+        mujoco.mj_kinematics(model, data)
+        np.testing.assert_allclose(translations[k], data.xpos[model.body(name).id], atol=1e-6)
+        expected = data.xquat[model.body(name).id]
+        np.testing.assert_allclose(quats[k] * np.sign(quats[k] @ expected), expected, atol=1e-6)
+    return quats
+
+
 @pytest.fixture(scope="module")
 def traces(tmp_path_factory):
     """A flagship (the first 200 s of its 500) and a slew trace, written and read back."""
@@ -100,24 +119,13 @@ def test_cmg_picture_read_back_from_the_trace(traces, name):
     n = len(t)
     model = build(scenario.model, scenario.sim.dt_s)
     geometry = ClusterGeometry.from_model(model)
-    data = mujoco.MjData(model)
     rows = np.linspace(0, n - 1, 12).astype(int)
     total = np.zeros((n, 3))
     arrow = components(path, "world/bus/cmg_momentum")["Arrows3D:vectors"]
     scale = np.linalg.norm(arrow[rows[-1]][0]) / np.linalg.norm(momentum[rows[-1]])
     for i in range(4):
         gimbal, rotor = f"gimbal{i + 1}", f"rotor{i + 1}"
-        frame = components(path, f"world/bus/{gimbal}")
-        quats = np.array([q[0] for q in frame["Transform3D:quaternion"]])[:, [3, 0, 1, 2]]
-        translations = np.array([p[0] for p in frame["Transform3D:translation"]])
-        assert quats.shape == (n, 4) and translations.shape == (n, 3)
-        for k in rows:  # MuJoCo's kinematics at the recorded angles, bus at the origin
-            data.qpos[:] = model.qpos0
-            data.qpos[model.joint(gimbal).qposadr[0]] = beta[k, i]
-            mujoco.mj_kinematics(model, data)
-            np.testing.assert_allclose(translations[k], data.xpos[model.body(gimbal).id], atol=1e-6)
-            expected = data.xquat[model.body(gimbal).id]
-            np.testing.assert_allclose(quats[k] * np.sign(quats[k] @ expected), expected, atol=1e-6)
+        quats = hinged_frame_follows_mujoco(path, f"world/bus/{gimbal}", model, gimbal, beta[:, i], rows)
         box = model.geom_size[[g for g in range(model.ngeom) if model.geom_bodyid[g] == model.body(gimbal).id][0]]
         np.testing.assert_allclose(components(path, f"world/bus/{gimbal}/boxes")["Boxes3D:half_sizes"][0][0], box, rtol=1e-6)
         disc = model.geom_size[[g for g in range(model.ngeom) if model.geom_bodyid[g] == model.body(rotor).id][0]]

@@ -1,16 +1,7 @@
-"""Closed-form modes of a bus with hinged panels, and of the slosh models (docs/theory/flexible.md).
-
-The panels' modes follow from the linearised planar equations of rigid bodies joined by torsional
-springs: with every hinge axis along one bus axis `a` that is principal for the rigid part, and
-every CoM in one plane normal to it, motion in that plane decouples from the rest. The
-coordinates are the absolute angles about `a` of the rigid part (theta_0) and of each panel;
-the translation is eliminated by the fixed system CoM (docs/theory/flexible.md, eq. F1-F4):
-
-    M = diag(I_b) + sum_b m_b W_b^T W_b - (1/m) (sum_b m_b W_b)^T (sum_b m_b W_b),
-
-W_b (3, n) mapping the angle rates to body b's CoM velocity (a x lever for each body on the path
-from the bus to b), and K, C the hinge springs and dampers on the relative angles. Clamped (the bus
-held), the bus's column and the CoM term drop out: a lone panel has w = sqrt(k / J_hinge).
+"""Closed-form modes of a bus with hinged panels (planar: every hinge axis along one principal
+axis of the rigid part, every CoM in one plane normal to it; free-free and clamped) and of the
+slosh models (spring-mass on the free bus in 3D; pendulum under thrust). The derivations, eq.
+F1-F8, are in docs/theory/flexible.md.
 """
 
 from __future__ import annotations

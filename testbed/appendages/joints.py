@@ -9,7 +9,7 @@ import re
 import mujoco
 import numpy as np
 
-PANEL_JOINT = re.compile(r"wing\d+_panel\d+")
+PANEL_JOINT = re.compile(r"wing(\d+)_panel(\d+)")
 SLOSH_JOINT = re.compile(r"slosh\d+_[abc]")
 APPENDAGE_BODY = re.compile(r"wing\d+_panel\d+|slosh\d+")
 PANEL_SIGNAL, SLOSH_ANGLE_SIGNAL, SLOSH_OFFSET_SIGNAL = "panel_angle", "slosh_angle", "slosh_offset"
@@ -82,6 +82,19 @@ class AppendageJoints:
         n = model.nv
         system = np.block([[np.zeros((n, n)), np.eye(n)], [-solved[:, :n], -solved[:, n:]]])
         return float(np.max(np.abs(np.linalg.eigvals(system))))
+
+    def applied(self, model: mujoco.MjModel) -> dict:
+        """Each panel's mass, hinge stiffness and damping as compiled, by scenario path
+        (`model.appendages.wings.W.panels.P.stiffness_nm_rad`, 0-based; Plant.applied)."""
+        values = {}
+        for name in self.panel_names:
+            wing, panel = (int(i) - 1 for i in PANEL_JOINT.fullmatch(name).groups())
+            joint = model.joint(name)
+            path = f"model.appendages.wings.{wing}.panels.{panel}"
+            values |= {f"{path}.mass_kg": float(model.body(name).mass[0]),
+                       f"{path}.stiffness_nm_rad": float(joint.stiffness[0]),
+                       f"{path}.damping_nms_rad": float(model.dof_damping[joint.dofadr[0]])}
+        return values
 
     def hinge_signals(self) -> dict[str, tuple[str, int]]:
         """Hinge joint name -> (recorded signal, column) for the 3D view (recording.scene.moving_parts)."""

@@ -4,7 +4,8 @@
 
 The closed forms hold for a bus whose rotors hold no momentum (no gyroscopic coupling), panels
 in the planar configuration of closed_form.planar_parts, spring-mass slosh without panels or
-pendulums beside it; a configuration outside them gives NaN (and fails any check)."""
+pendulums beside it; a configuration outside them, or a decay with fewer than three peaks,
+gives NaN (and fails any check)."""
 
 from __future__ import annotations
 
@@ -69,7 +70,10 @@ def _decay_against(run, key: str, modes) -> tuple[float, float]:
         expected = _closed_form(run, modes)
         if expected is None or not len(expected.frequency):
             return float("nan"), float("nan")
-        frequency, zeta = free_decay(run.recorder.time, run.recorder[key][:, 0])
+        try:
+            frequency, zeta = free_decay(run.recorder.time, run.recorder[key][:, 0])
+        except ValueError:  # fewer than three peaks: too short a run, or overdamped
+            return float("nan"), float("nan")
         nearest = int(np.argmin(np.abs(expected.frequency - frequency)))
         zeta_error = abs(zeta - expected.damping_ratio[nearest]) / expected.damping_ratio[nearest] \
             if expected.damping_ratio[nearest] > 0 else float("nan")

@@ -60,10 +60,10 @@ class PanelParams:
     mass_kg: float = param(gt=0, doc="the panel's mass")
     length_m: float = param(gt=0, le=MAX_POSITION_M, doc="hinge to outboard edge, along the span (the next panel's hinge)")
     width_m: float = param(1.0, gt=0, le=MAX_POSITION_M, doc="along the hinge axis (drawn; sets the default inertia)")
-    thickness_m: float = param(0.03, gt=0, le=MAX_POSITION_M, doc="drawn only")
+    thickness_m: float = param(0.03, gt=0, le=MAX_POSITION_M, doc="drawn; sets the default inertia")
     com_offset_m: float | None = param(None, ge=0, le=MAX_POSITION_M, doc="hinge line to CoM along the span; None: length_m / 2")
     inertia_kg_m2: list[float] | None = param(None, length=3, doc=(
-        "principal moments about the CoM along (span, hinge, normal); None: a thin uniform plate"))
+        "principal moments about the CoM along (span, hinge, normal); None: a uniform box of the panel's size"))
     stiffness_nm_rad: float = param(gt=0, doc="torsional spring of the hinge (MuJoCo joint stiffness)")
     damping_nms_rad: float = param(0.0, ge=0, doc="torsional damper of the hinge (MuJoCo joint damping)")
     range_deg: list[float] | None = param(None, length=2, ge=-180, le=180, doc="hinge stops [low, high]; None: free")
@@ -75,11 +75,13 @@ class PanelParams:
 
     def inertia(self) -> np.ndarray:
         """Principal moments about the CoM along (span, hinge, normal) [kg m^2]: the given ones, or
-        a thin plate's m (b^2, a^2, a^2 + b^2) / 12 (a = length, b = width)."""
+        a uniform box's m (b^2 + t^2, a^2 + t^2, a^2 + b^2) / 12 (a = length, b = width, t =
+        thickness; a plate of no thickness would sit on the triangle inequality's edge, which
+        MuJoCo's compiler refuses at round-off)."""
         if self.inertia_kg_m2 is not None:
             return np.asarray(self.inertia_kg_m2, float)
-        a, b = self.length_m, self.width_m
-        return self.mass_kg * np.array([b * b, a * a, a * a + b * b]) / 12.0
+        a, b, t = self.length_m, self.width_m, self.thickness_m
+        return self.mass_kg * np.array([b * b + t * t, a * a + t * t, a * a + b * b]) / 12.0
 
     def hinge_inertia(self) -> float:
         """J = I_hinge + m d^2: the panel's inertia about its own hinge line [kg m^2]."""
@@ -132,7 +134,8 @@ class SloshParams:
     damping_ratio: float = param(0.0, ge=0, lt=1, doc="spring_mass: c / (2 sqrt(k m)) on each slide")
     slide_axes: list[list[float]] = param([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], doc=(
         "spring_mass: 1 to 3 mutually normal unit axes the mass slides along"))
-    initial_offsets_m: list[float] | None = param(None, doc="spring_mass: displacement along each slide axis at the start")
+    initial_offsets_m: list[float] | None = param(None, ge=-MAX_POSITION_M, le=MAX_POSITION_M, doc=(
+        "spring_mass: displacement along each slide axis at the start"))
     # pendulum
     length_m: float | None = param(None, gt=0, le=MAX_POSITION_M, doc="pendulum: pivot to mass")
     rod_axis: list[float] = param([0.0, 0.0, -1.0], length=3, doc="pendulum: unit direction pivot -> mass at rest")
@@ -141,6 +144,12 @@ class SloshParams:
         "pendulum: the rod's angles about its two hinge axes at the start"))
 
     def validate(self, path: str) -> None:
+        defaults = SloshParams(model=self.model, mass_kg=self.mass_kg, position_m=self.position_m)
+        other = {"spring_mass": ("damping_nms_rad", "rod_axis", "initial_angles_deg"),
+                 "pendulum": ("damping_ratio", "slide_axes", "initial_offsets_m")}[self.model]
+        for name in other:  # a field of the other model, given: a mistake, not to be ignored
+            if getattr(self, name) != getattr(defaults, name):
+                raise InputError(join(path, name), f"is not a field of a {self.model} slosh model")
         if self.model == "spring_mass":
             if self.frequency_hz is None:
                 raise InputError(join(path, "frequency_hz"), "a spring_mass slosh model needs its frequency")

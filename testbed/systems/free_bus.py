@@ -119,8 +119,9 @@ class FreeBus:
                                         - np.outer(com_body, com_body))
 
     def com_offset_body(self, data):
-        """System CoM relative to the bus origin, in bus axes [m] (zero by design); reads
-        the kinematics stored in data (see refresh)."""
+        """System CoM relative to the bus origin, in bus axes [m] (zero by design for a rigid
+        bus and its actuators; panels and slosh masses move it); reads the kinematics stored in
+        data (see refresh)."""
         rot = data.xmat[self.bus_body_id].reshape(3, 3)
         return rot.T @ (data.subtree_com[self.bus_body_id] - data.xpos[self.bus_body_id])
 

@@ -90,8 +90,8 @@ def build(params: CmgClusterParams, dt: float, integrator: str = "RK4") -> mujoc
     """Compile models/cmg_cluster.xml with the array's units added and every field of `params`
     applied through MjSpec; with `params.wheels`, the reaction_wheels builder's wheels added to
     the same bus after the units (`add_wheels`), their initial speeds in the keyframe; with
-    `params.appendages`, the panels and slosh masses after those (testbed.appendages.build),
-    their initial deflections in the keyframe."""
+    `params.appendages`, the panels and slosh masses after those (testbed.appendages.build), at
+    rest in the keyframe (the plant deflects them: Plant.place_appendages)."""
     spec = load_spec("cmg_cluster.xml", dt, integrator)
     set_bus_inertia_tensor(spec, params.inertia_tensor(), params.mass_kg)
     units = params.units()
@@ -112,9 +112,9 @@ def build(params: CmgClusterParams, dt: float, integrator: str = "RK4") -> mujoc
         key.ctrl = list(key.ctrl) + [0.0] * count
     if params.appendages is not None:
         add_appendages(spec, spec.body(BUS_BODY), params.appendages)
-        start = initial_positions(params.appendages)
-        key.qpos = list(key.qpos) + start
-        key.qvel = list(key.qvel) + [0.0] * len(start)
+        count = len(initial_positions(params.appendages))
+        key.qpos = list(key.qpos) + [0.0] * count
+        key.qvel = list(key.qvel) + [0.0] * count
     return compile_model(spec)
 
 

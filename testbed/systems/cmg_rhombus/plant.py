@@ -131,9 +131,10 @@ class CmgRhombus(FreeBus):
         """Angular momentum of the gimbals and rotors (and any wheels and appendages) relative
         to the bus, bus frame [N m s].
 
-        The bus-rotation row of the mass matrix times the gimbal and rotor joint rates:
-        sum_k I_k w_rel,k (+ m_k r_k x v_rel,k, zero here since every CoM lies on its
-        joint axis). Includes the gimbal-rate terms, unlike the spin-only H(beta).
+        The bus-rotation row of the mass matrix times the joint rates: sum_k I_k w_rel,k +
+        m_k r_k x v_rel,k (the second zero for gimbals, rotors and wheels, whose CoMs lie on their
+        joint axes; a panel's or slosh mass's about the bus origin). Includes the gimbal-rate
+        terms, unlike the spin-only H(beta).
         """
         self.refresh(data)
         mass_matrix = np.zeros((self.model.nv, self.model.nv))
@@ -235,7 +236,7 @@ class CmgPlant(Plant):
 
     def initialise(self, initial) -> None:
         self.bus.initialise(self.data, initial.omega, initial.quat)
-        if self.appendage_start:
+        if self.appendage_start:  # the keyframe holds them at rest
             self.place_appendages()
             mujoco.mj_forward(self.model, self.data)
         if self.cancel_initial_momentum:
