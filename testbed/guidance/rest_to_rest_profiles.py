@@ -100,7 +100,8 @@ def residual_vibration(profile: RestToRestProfile, frequency_rad_s: float, dampi
     corners = sorted({float(t) for ti in profile.shaper.times for t in (ti, ti + profile.duration)})
     if profile.kind == "s_curve":
         edges = s_curve_jerk(profile.jerk_fraction, profile.coast_fraction)[0]
-        corners = sorted(set(corners) | {float(ti + e * profile.duration) for ti in profile.shaper.times for e in edges})
+        corners = sorted(set(corners) | {float(ti + e * profile.duration) for ti in profile.shaper.times
+                                         for e in edges})
     total = 0j
     for a, b in zip(corners[:-1], corners[1:]):
         for part, take in ((1.0, np.real), (1j, np.imag)):

@@ -82,7 +82,8 @@ class SlewParams:
         if self.jerk_fraction + self.coast_fraction > 1.0:
             raise InputError(join(path, "coast_fraction"), f"jerk_fraction + coast_fraction must be <= 1, got "
                              f"{self.jerk_fraction:g} + {self.coast_fraction:g}")
-        if (self.settle_pointing_deg is not None or self.settle_rate_deg_s is not None) and np.any(self.final_rate_deg_s):
+        settling = self.settle_pointing_deg is not None or self.settle_rate_deg_s is not None
+        if settling and np.any(self.final_rate_deg_s):
             raise InputError(join(path, "final_rate_deg_s"), "the settling metrics measure a slew to rest: must be 0 "
                              "with settle_pointing_deg or settle_rate_deg_s")
         smooth = self.profile != "cubic" or self.shaper is not None
@@ -94,8 +95,8 @@ class SlewParams:
         """The profile and shaper of the scenario (None: the cubic of SEEDS §004, unshaped)."""
         if self.profile == "cubic" and self.shaper is None:
             return None
-        return RestToRestProfile(self.profile, self.duration_s, NO_SHAPER if self.shaper is None else self.shaper.impulses,
-                                 self.jerk_fraction, self.coast_fraction)
+        impulses = NO_SHAPER if self.shaper is None else self.shaper.impulses
+        return RestToRestProfile(self.profile, self.duration_s, impulses, self.jerk_fraction, self.coast_fraction)
 
 
 def build_program(params: SlewParams, q0) -> ProgramTrajectory:
