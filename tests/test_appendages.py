@@ -239,19 +239,21 @@ def test_a_hinge_stop_holds_the_panel_within_its_range():
     assert np.radians(-6.0) < low < np.radians(-4.0)
 
 
-def test_the_3d_view_places_each_panel_where_mujoco_has_it():
+def test_the_3d_view_places_each_panel_and_pendulum_where_mujoco_has_it():
     """The trace's hinge_poses (recording.scene) from the recorded hinge angles against MuJoCo's own
-    body positions and orientations in the bus frame, for a deflected chain: same kinematics, 1e-12."""
-    params = params_of(FREE_CASES["a chain of three and a lone panel"])
+    body positions and orientations in their parents' frames, for a deflected chain and a swung
+    pendulum (its pivot and bob): same kinematics, 1e-12."""
+    pendulum = {"model": "pendulum", "mass_kg": 30.0, "position_m": [0.1, 0.0, 0.2], "length_m": 0.4,
+                "rod_axis": [0.0, 0.6, -0.8]}
+    params = params_of(FREE_CASES["a chain of three and a lone panel"] | {"slosh": [pendulum]})
     plant = ReactionWheelPlant(build(params, 0.01, "RK4"), params)
     plant.initialise(Initial((0.0, 0.0, 0.0)))
-    angles = np.radians([20.0, -35.0, 50.0, 15.0])
-    plant.appendages.set_positions(angles)
+    plant.appendages.set_positions(np.radians([20.0, -35.0, 50.0, 15.0, 25.0, -40.0]))
     mujoco.mj_kinematics(plant.model, plant.data)
     parts = [p for p in plant.scene()["moving_parts"] if p["hinge"] is not None]
-    recorded = plant.truth()["panel_angle"][None, :]
-    columns = recorded[:, [p["hinge"]["column"] for p in parts]]
-    assert [p["hinge"]["signal"] for p in parts] == ["truth/panel_angle"] * 4
+    truth = {f"truth/{key}": value[None, :] for key, value in plant.truth().items()}
+    columns = np.column_stack([truth[p["hinge"]["signal"]][:, p["hinge"]["column"]] for p in parts])
+    assert [p["hinge"]["signal"] for p in parts] == ["truth/panel_angle"] * 4 + ["truth/slosh_angle"] * 2
     translations, quats = hinge_poses(parts, columns)
     for part, position, quat in zip(parts, translations[0], quats[0]):
         body = plant.model.body(part["entity"].split("/")[-1]).id
@@ -410,3 +412,22 @@ def test_a_campaign_over_hinge_stiffness_and_damping_reads_them_back_from_the_mo
         for path, value in case.values.items():
             got, source = read[path]
             assert source == "model" and got == pytest.approx(value, rel=1e-12), path
+
+
+def test_only_unpowered_wheels_spin_freely_out_of_the_rigid_part():
+    """free_spinner_axis: a reaction wheel (a plain motor) spins freely; a wheel with bearing friction,
+    a CMG's gimbal (servo) and rotor (speed loop) and a panel (spring) do not."""
+    from testbed.appendages.joints import free_spinner_axis
+    from testbed.systems.cmg_cluster.model import CmgClusterParams, build as build_cluster
+    params = params_of({"wings": [wing([0, 0.7, 0], [0, 1, 0], [panel()])]})
+    model = build(params, 0.01, "RK4")
+    for i, axis in enumerate(params.axes()):
+        assert free_spinner_axis(model, model.body(f"wheel{i + 1}").id) == pytest.approx(axis, abs=1e-15)
+    assert free_spinner_axis(model, model.body("wing1_panel1").id) is None
+    rubbing = params_of({"wings": [wing([0, 0.7, 0], [0, 1, 0], [panel()])]},
+                        BUS | {"wheel": {"viscous_friction_nms_rad": 1e-4}})
+    rubbing_model = build(rubbing, 0.01, "RK4")
+    assert free_spinner_axis(rubbing_model, rubbing_model.body("wheel1").id) is None
+    cluster = build_cluster(load(CmgClusterParams, {}, "model"), 0.001)
+    assert all(free_spinner_axis(cluster, cluster.body(name).id) is None
+               for name in ("gimbal1", "rotor1", "gimbal4", "rotor4"))

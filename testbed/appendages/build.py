@@ -5,9 +5,10 @@ origin on the hinge line; its CoM lies `com_offset_m` along x, and the next pane
 its child at x = `length_m`. The hinge carries the torsional spring and damper (MuJoCo joint
 `stiffness`, `damping`, spring reference 0) and, with `range_deg`, the stops (joint `range`).
 A spring-mass slosh model is a body on one slide joint per axis, each with its spring and
-damper, its mass a uniform cube of half size SPRING_MASS_SIZE_M; a pendulum is a body on two
-hinges through the pivot, normal to the rod and to each other, its mass a uniform sphere of
-radius `length / PENDULUM_BOB_RATIO` at the rod's end (drawn as a box).
+damper, its mass a uniform cube of half size SPRING_MASS_SIZE_M; a pendulum turns on two hinges
+through the pivot, normal to the rod and to each other (a pivot body on the first carries the bob
+on the second), its mass a uniform sphere of radius `length / PENDULUM_BOB_RATIO` at the rod's end
+(drawn as a box).
 """
 
 from __future__ import annotations
@@ -34,6 +35,8 @@ def slosh_name(index: int) -> str:
 
 
 SLOSH_JOINT_SUFFIXES = ("_a", "_b", "_c")
+BOB_SUFFIX = "_bob"  # a pendulum's bob, the child of its pivot body
+PIVOT_SHARE = 1e-6  # a pendulum pivot's mass and inertia, of the bob's (its swing inertia: 4e-9 of the bob's)
 
 
 def frame_quat(rotation: np.ndarray) -> list[float]:
@@ -61,16 +64,25 @@ def add_appendages(spec: mujoco.MjSpec, bus, params: AppendagesParams) -> None:
             body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[SPRING_MASS_SIZE_M] * 3, contype=0,
                           conaffinity=0, mass=0, rgba=SLOSH_RGBA)
         else:
+            # the pivot body turns on hinge _a and carries the bob on hinge _b: one hinge per body,
+            # as the 3D view turns them; MuJoCo needs a mass for the moving pivot, PIVOT_SHARE of the bob's
             rod = np.asarray(slosh.rod_axis, float) * slosh.length_m
             radius = slosh.length_m / PENDULUM_BOB_RATIO
-            body.mass = slosh.mass_kg
-            body.ipos = rod.tolist()
-            body.inertia = [0.4 * slosh.mass_kg * radius ** 2] * 3
-            for axis, suffix in zip(slosh.hinge_axes(), SLOSH_JOINT_SUFFIXES):
-                body.add_joint(name=slosh_name(k) + suffix, type=hinge, axis=axis.tolist(),
-                               damping=slosh.damping_nms_rad)
-            body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[radius] * 3, pos=rod.tolist(), contype=0,
-                          conaffinity=0, mass=0, rgba=SLOSH_RGBA)
+            bob_inertia = 0.4 * slosh.mass_kg * radius ** 2
+            first, second = slosh.hinge_axes()
+            body.mass = PIVOT_SHARE * slosh.mass_kg
+            body.ipos = [0.0, 0.0, 0.0]
+            body.inertia = [PIVOT_SHARE * bob_inertia] * 3
+            body.add_joint(name=slosh_name(k) + SLOSH_JOINT_SUFFIXES[0], type=hinge, axis=first.tolist(),
+                           damping=slosh.damping_nms_rad)
+            bob = body.add_body(name=slosh_name(k) + BOB_SUFFIX, explicitinertial=True)
+            bob.mass = slosh.mass_kg
+            bob.ipos = rod.tolist()
+            bob.inertia = [bob_inertia] * 3
+            bob.add_joint(name=slosh_name(k) + SLOSH_JOINT_SUFFIXES[1], type=hinge, axis=second.tolist(),
+                          damping=slosh.damping_nms_rad)
+            bob.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[radius] * 3, pos=rod.tolist(), contype=0,
+                         conaffinity=0, mass=0, rgba=SLOSH_RGBA)
 
 
 def add_wing(bus, w: int, wing: WingParams) -> None:

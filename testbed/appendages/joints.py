@@ -11,7 +11,7 @@ import numpy as np
 
 PANEL_JOINT = re.compile(r"wing(\d+)_panel(\d+)")
 SLOSH_JOINT = re.compile(r"slosh\d+_[abc]")
-APPENDAGE_BODY = re.compile(r"wing\d+_panel\d+|slosh\d+")
+APPENDAGE_BODY = re.compile(r"wing\d+_panel\d+|slosh\d+(_bob)?")
 PANEL_SIGNAL, SLOSH_ANGLE_SIGNAL, SLOSH_OFFSET_SIGNAL = "panel_angle", "slosh_angle", "slosh_offset"
 
 
@@ -28,8 +28,8 @@ class AppendageJoints:
         self.panel_names = [n for n in names if PANEL_JOINT.fullmatch(n)]
         slosh = [j for j, n in enumerate(names) if SLOSH_JOINT.fullmatch(n)]
         hinge = mujoco.mjtJoint.mjJNT_HINGE
-        self.slosh_hinge_names = [names[j] for j in slosh if model.jnt_type[j] == hinge]
-        self.slosh_slide_names = [names[j] for j in slosh if model.jnt_type[j] != hinge]
+        self.slosh_hinge_names = [names[j] for j in slosh if int(model.jnt_type[j]) == hinge]
+        self.slosh_slide_names = [names[j] for j in slosh if int(model.jnt_type[j]) != hinge]
         self.panel_qpos = self._addresses(model, self.panel_names)
         self.slosh_hinge_qpos = self._addresses(model, self.slosh_hinge_names)
         self.slosh_slide_qpos = self._addresses(model, self.slosh_slide_names)
@@ -97,8 +97,10 @@ class AppendageJoints:
         return values
 
     def hinge_signals(self) -> dict[str, tuple[str, int]]:
-        """Hinge joint name -> (recorded signal, column) for the 3D view (recording.scene.moving_parts)."""
-        return {name: (f"truth/{PANEL_SIGNAL}", i) for i, name in enumerate(self.panel_names)}
+        """Hinge joint name -> (recorded signal, column) for the 3D view (recording.scene.moving_parts):
+        the panels and the pendulums' pivots and bobs (the spring-masses are drawn at rest)."""
+        panels = {name: (f"truth/{PANEL_SIGNAL}", i) for i, name in enumerate(self.panel_names)}
+        return panels | {name: (f"truth/{SLOSH_ANGLE_SIGNAL}", i) for i, name in enumerate(self.slosh_hinge_names)}
 
 
 def free_spinner_axis(model: mujoco.MjModel, body: int) -> np.ndarray | None:
@@ -112,8 +114,8 @@ def free_spinner_axis(model: mujoco.MjModel, body: int) -> np.ndarray | None:
     if int(model.jnt_type[joint]) != mujoco.mjtJoint.mjJNT_HINGE or model.jnt_stiffness[joint] \
             or model.dof_damping[dof] or model.dof_frictionloss[dof]:
         return None
-    on_joint = (model.actuator_trntype == mujoco.mjtTrn.mjTRN_JOINT) & (model.actuator_trnid[:, 0] == joint)
-    if np.any(model.actuator_biastype[on_joint] != mujoco.mjtBias.mjBIAS_NONE):
+    on_joint = (model.actuator_trntype == int(mujoco.mjtTrn.mjTRN_JOINT)) & (model.actuator_trnid[:, 0] == joint)
+    if np.any(model.actuator_biastype[on_joint] != int(mujoco.mjtBias.mjBIAS_NONE)):
         return None
     return model.jnt_axis[joint]
 
