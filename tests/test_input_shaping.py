@@ -118,7 +118,8 @@ def test_shapers_closed_form_amplitudes_and_times():
 
 
 @pytest.mark.parametrize("frequencies, zetas, field", [([0.0], [0.0], "frequency_hz"), ([1.0], [1.0], "damping_ratio"),
-                                                       ([1.0, 2.0], [0.1], "damping_ratio")])
+                                                       ([1.0, 2.0], [0.1], "damping_ratio"),
+                                                       ([0.1] * 5, [0.01] * 5, "frequency_hz")])
 def test_shaper_refuses_what_it_cannot_cancel(frequencies, zetas, field):
     with pytest.raises(InputError) as err:
         shaper_for("zvd", frequencies, zetas, "pipeline.law.shaper")

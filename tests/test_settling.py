@@ -64,3 +64,30 @@ def test_rate_spectrum_peaks_at_the_mode_and_holds_its_power():
     steady = np.column_stack([2e-3 * np.sin(2 * np.pi * f0 * time), np.zeros(len(time)), np.zeros(len(time))])
     f, psd = rate_spectrum(time, steady, after)
     assert np.sum(psd) * f[1] == pytest.approx((2e-3) ** 2 / 2, rel=0.02)
+
+
+@pytest.mark.slow
+def test_the_trace_holds_the_spectrum_of_its_own_rates(tmp_path):
+    """agile_slew_flexible cut at 50 s: `spectrum/bus_rate_psd` in the .rrd is Welch's PSD of the
+    trace's own truth/omega after the slew's end (stored as doubles), its peak the
+    run's jitter_peak_hz; a slew without settle_rate_deg_s writes no spectrum."""
+    from pathlib import Path
+
+    from testbed.recording.trace_reader import _chunks, read_rrd
+    from testbed.runner import run_scenario
+    from testbed.scenario.loading import load_scenario
+
+    out = tmp_path / "flex.rrd"
+    result = run_scenario(load_scenario("agile_slew_flexible", ["sim.duration_s=50"]), out)
+    assert result.status == "ok"
+    info = read_rrd(Path(out), signals=True)
+    time, omega = info["trace"]["truth/omega"]
+    f, psd = rate_spectrum(time, omega, 32.0)  # the program ends at start_s + duration_s = 2 + 30 s
+    stored = [c.to_record_batch() for c in _chunks(Path(out)) if str(c.entity_path) == "/spectrum/bus_rate_psd"]
+    batch = stored[-1]
+    values, abscissa = (batch.column(f"BarChart:{part}").to_pylist()[0][0]["buffer"] for part in ("values", "abscissa"))
+    assert np.allclose(values, psd, rtol=1e-12) and np.allclose(abscissa, f, rtol=1e-12)
+    assert result.metrics["jitter_peak_hz"] == pytest.approx(spectral_peak(f, psd), rel=1e-6)
+    plain = tmp_path / "plain.rrd"
+    run_scenario(load_scenario("reorient_pinv", ["sim.duration_s=2"]), plain)
+    assert not any("spectrum" in entity for entity in read_rrd(Path(plain))["entities"])

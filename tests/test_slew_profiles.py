@@ -113,6 +113,7 @@ def test_s_curve_acceleration_spectrum_is_the_closed_form():
 @pytest.mark.parametrize("fields, field", [({"profile": "versine", "final_rate_deg_s": [0, 0, 1]}, "pipeline.law.profile"),
                                            ({"jerk_fraction": 0.7, "coast_fraction": 0.5}, "pipeline.law.coast_fraction"),
                                            ({"profile": "wobble"}, "pipeline.law.profile"),
+                                           ({"profile": "s_curve", "jerk_fraction": 1e-4}, "pipeline.law.jerk_fraction"),
                                            ({"shaper": {"type": "zv", "frequency_hz": [0.3], "damping_ratio": [1.2]}},
                                             "pipeline.law.shaper.damping_ratio[0]"),
                                            ({"settle_rate_deg_s": 0.01, "final_rate_deg_s": [0, 1, 0]},
@@ -122,3 +123,40 @@ def test_slew_refuses_profiles_it_cannot_fly(fields, field):
     with pytest.raises(InputError) as err:
         load(SlewParams, base | fields, "pipeline.law")
     assert err.value.field == field
+
+
+@pytest.mark.parametrize("profile", [RestToRestProfile("cubic", 9.0), RestToRestProfile("versine", 9.0),
+                                     RestToRestProfile("s_curve", 9.0, jerk_fraction=0.7, coast_fraction=0.1)],
+                         ids=["cubic", "versine", "s_curve"])
+def test_a_profile_s_residual_vibration_is_what_an_ode_mode_keeps(profile):
+    """A damped mode x'' + 2ζωx' + ω²x = ω² g(t) driven by the profile (SciPy's ODE solver): the
+    amplitude about x = 1 at the profile's end, over a unit step's, is `residual_vibration`
+    (1e-6: the ODE's tolerance); a shaper multiplies it by its V(ω, ζ)."""
+    from scipy.integrate import solve_ivp
+
+    from testbed.guidance.rest_to_rest_profiles import residual_vibration
+    from testbed.shaping.shapers import residual_vibration as shaper_vibration
+
+    w, zeta = 2 * np.pi * 0.31, 0.04
+    wd = w * np.sqrt(1 - zeta**2)
+    sol = solve_ivp(lambda t, y: [y[1], w * w * (profile(t)[0] - y[0]) - 2 * zeta * w * y[1]], (0.0, profile.end),
+                    [0.0, 0.0], method="DOP853", rtol=1e-11, atol=1e-13, max_step=0.05)
+    x, v = sol.y[0, -1] - 1.0, sol.y[1, -1]
+    step = 1 / np.sqrt(1 - zeta**2)  # a unit step leaves -e^{-σt}(cos ω_d t + σ/ω_d sin ω_d t)
+    assert residual_vibration(profile, w, zeta) == pytest.approx(np.hypot(x, (v + zeta * w * x) / wd) / step, rel=1e-6)
+    shaper = shaper_for("zv", [0.27], [0.02])
+    shaped = RestToRestProfile(profile.kind, profile.duration, shaper, profile.jerk_fraction, profile.coast_fraction)
+    assert residual_vibration(shaped, w, zeta) == pytest.approx(
+        residual_vibration(profile, w, zeta) * float(shaper_vibration(shaper, w, zeta)), rel=1e-8)
+
+
+def test_the_s_curve_leaves_no_ringing_at_its_ramp_frequency():
+    """Undamped, the s-curve's residual is zero at f = k/(τ_j T) (its acceleration's sinc zeros),
+    the versine's at f = k/T, k >= 2; the cubic leaves some at both (1e-9: quad's floor)."""
+    from testbed.guidance.rest_to_rest_profiles import residual_vibration
+
+    T, rj = 11.0, 0.6
+    f_ramp = 1 / (rj / 4 * T)
+    assert residual_vibration(RestToRestProfile("s_curve", T, jerk_fraction=rj), 2 * np.pi * f_ramp, 0.0) < 1e-9
+    assert residual_vibration(RestToRestProfile("versine", T), 2 * np.pi * 3 / T, 0.0) < 1e-9
+    assert residual_vibration(RestToRestProfile("cubic", T), 2 * np.pi * 3 / T, 0.0) > 1e-3

@@ -6,9 +6,10 @@ rates initial_rate_deg_s and final_rate_deg_s (eq. 3, 10-13; rest to rest by def
 eigen-axis slew). A rest-to-rest slew may follow a smooth `profile` (versine, s-curve) and an
 input `shaper` (ZV, ZVD at given modes), which lengthens it by the shaper's duration
 (testbed.guidance.rest_to_rest_profiles, testbed.shaping.shapers); `settle_pointing_deg` and
-`settle_rate_deg_s` ask for the settling metrics (testbed.guidance.settling_metrics). The wanted torque is the program torque M* (eq. 9) plus quaternion PD
-feedback with gyroscopic compensation (testbed.guidance.tracking_law), designed on the
-locked system inertia ctx.inertia. Before start_s the program holds q0 (rest start);
+`settle_rate_deg_s` ask for the settling metrics (testbed.guidance.settling_metrics). The
+wanted torque is the program torque M* (eq. 9) plus quaternion PD feedback with gyroscopic
+compensation (testbed.guidance.tracking_law), designed on the locked system inertia
+ctx.inertia. Before start_s the program holds q0 (rest start);
 after the slew it holds qT (or spins on at the final rate).
 
 Records `law/torque`, the program `program_quat`, `program_omega`, `program_torque`, and the
@@ -52,7 +53,7 @@ class ShaperParams:
     damping_ratio: list[float] = param(doc="the modes' damping ratios, one per frequency, in [0, 1)")
 
     def validate(self, path: str) -> None:
-        self.shaper = shaper_for(self.type, self.frequency_hz, self.damping_ratio, path)
+        self.impulses = shaper_for(self.type, self.frequency_hz, self.damping_ratio, path)
 
 
 @dataclass(kw_only=True)
@@ -67,7 +68,8 @@ class SlewParams:
     damping_ratio: float = param(0.9, ge=0, doc="tracking-error damping ratio")
     profile: Literal["cubic", "versine", "s_curve"] = param("cubic", doc="rest-to-rest angle profile "
                                                               "(docs/theory/slew-and-settle.md)")
-    jerk_fraction: float = param(0.5, gt=0, le=1, doc="s_curve: share of T spent in the four jerk ramps")
+    # ramps shorter than a thousandth of T are a step: the jerk's 1/ramp scale would drown the profile's precision
+    jerk_fraction: float = param(0.5, ge=1e-3, le=1, doc="s_curve: share of T spent in the four jerk ramps")
     coast_fraction: float = param(0.0, ge=0, lt=1, doc="s_curve: share of T coasting at the peak rate")
     shaper: ShaperParams | None = param(None, doc="input shaper of the program (absent: none)")
     settle_pointing_deg: float | None = param(None, gt=0, doc="pointing bound of the settling metric (absent: "
@@ -80,7 +82,8 @@ class SlewParams:
         if self.jerk_fraction + self.coast_fraction > 1.0:
             raise InputError(join(path, "coast_fraction"), f"jerk_fraction + coast_fraction must be <= 1, got "
                              f"{self.jerk_fraction:g} + {self.coast_fraction:g}")
-        if (self.settle_pointing_deg is not None or self.settle_rate_deg_s is not None) and np.any(self.final_rate_deg_s):
+        settling = self.settle_pointing_deg is not None or self.settle_rate_deg_s is not None
+        if settling and np.any(self.final_rate_deg_s):
             raise InputError(join(path, "final_rate_deg_s"), "the settling metrics measure a slew to rest: must be 0 "
                              "with settle_pointing_deg or settle_rate_deg_s")
         smooth = self.profile != "cubic" or self.shaper is not None
@@ -92,8 +95,8 @@ class SlewParams:
         """The profile and shaper of the scenario (None: the cubic of SEEDS §004, unshaped)."""
         if self.profile == "cubic" and self.shaper is None:
             return None
-        return RestToRestProfile(self.profile, self.duration_s, NO_SHAPER if self.shaper is None else self.shaper.shaper,
-                                 self.jerk_fraction, self.coast_fraction)
+        impulses = NO_SHAPER if self.shaper is None else self.shaper.impulses
+        return RestToRestProfile(self.profile, self.duration_s, impulses, self.jerk_fraction, self.coast_fraction)
 
 
 def build_program(params: SlewParams, q0) -> ProgramTrajectory:

@@ -103,8 +103,8 @@ def blueprint(keys, t_end: float, scene: dict | None, path=None, spectra: dict |
                       grid_columns=2 if len(members) > 2 else 1, name=tab)
              for tab, members in tabs.items()]
     if spectra:
-        plots.append(rrb.Vertical(*[rrb.BarChartView(origin=f"/{entity}", name=title) for entity, title in spectra.items()],
-                                  name="spectra"))
+        plots.append(rrb.Vertical(*[rrb.BarChartView(origin=f"/{entity}", name=title)
+                                    for entity, title in spectra.items()], name="spectra"))
     result = rrb.TextDocumentView(origin="/run/summary", name=RESULT_TAB)
     right = (rrb.Tabs(*plots, result, active_tab=RESULT_TAB) if plots
              else rrb.TextDocumentView(origin=f"/{RESULT_ENTITY}"))

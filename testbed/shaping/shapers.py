@@ -71,12 +71,18 @@ def zvd(frequency_rad_s: float, damping_ratio: float, path: str = "shaper", inde
 
 
 KINDS = {"zv": zv, "zvd": zvd}
+# Each mode multiplies the impulses (2 for ZV, 3 for ZVD), and a shaped command sums a term per
+# impulse at every control tick: 4 ZVD modes make 81.
+MAX_MODES = 4
 
 
 def shaper_for(kind: str, frequencies_hz, damping_ratios, path: str = "shaper") -> Shaper:
     """The `kind` shaper ("zv" or "zvd") of every mode (frequency [Hz], damping ratio), convolved."""
     if len(frequencies_hz) != len(damping_ratios) or not len(frequencies_hz):
         raise InputError(f"{path}.damping_ratio", "give one damping ratio per mode frequency, at least one mode")
+    if len(frequencies_hz) > MAX_MODES:
+        raise InputError(f"{path}.frequency_hz", f"at most {MAX_MODES} modes (each multiplies the impulses), "
+                         f"got {len(frequencies_hz)}")
     shaper = Shaper(np.ones(1), np.zeros(1))
     for i, (f, z) in enumerate(zip(frequencies_hz, damping_ratios)):
         shaper = shaper.then(KINDS[kind](2.0 * np.pi * float(f), float(z), path, f"[{i}]"))
