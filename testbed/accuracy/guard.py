@@ -12,8 +12,6 @@ from __future__ import annotations
 
 import math
 
-import mujoco
-
 from testbed.accuracy.step_size import BUS_RATE
 from testbed.recording.reductions import MaxNorm
 
@@ -22,44 +20,28 @@ BUS_RATE_PEAK = MaxNorm("truth/omega")
 CHECK_NAMES = ("accuracy:momentum_drift", "accuracy:energy_drift", "accuracy:tracking", "accuracy:step_angle")
 
 
-def no_feedback_actuator(model) -> bool:
-    """Whether every actuator of the compiled model is a plain motor (no bias term): with nothing
-    commanded it gives no force, so nothing works on the system. A servo (a position or
-    velocity loop, MuJoCo's bias) holds its set-point and works against what moves it."""
-    return all(int(b) == mujoco.mjtBias.mjBIAS_NONE for b in model.actuator_biastype)
-
-
-def frictionless(model) -> bool:
-    """Whether no joint of the compiled model has friction (damping or frictionloss): friction
-    between two bodies is internal, it keeps the momentum but takes energy away."""
-    return not (model.dof_damping.any() or model.dof_frictionloss.any())
-
-
 class Monitors:
     """The guard's monitors of one run, chosen once the plant and pipeline are built.
 
-    momentum: the run's momentum_drift_rel, where no external torque acted (no environment, no
-    body torque given at any step, no external wrench of the plant's own: `Plant.external_wrench`); energy: energy_drift_rel, where moreover no actuator works
-    (`no_feedback_actuator`) and no joint has friction (`frictionless`); tracking: the plant's `tracking_monitor` (a running reduction and
-    its figure), when it has one for what the allocator commands; the step angle from the
-    largest recorded bus rate."""
+    momentum: the run's momentum_drift_rel, energy: energy_drift_rel, where the run's physics
+    conserved them (`conservation.kept_by(plant)`, testbed.run_core.conservation); tracking: the
+    plant's `tracking_monitor` (a running reduction and its figure), when it has one for what the
+    allocator commands (`command_key`); the step angle from the largest recorded bus rate."""
 
-    def __init__(self, scenario, plant, pipeline):
+    def __init__(self, scenario, plant, command_key: str | None, conservation):
         self.enabled = scenario.accuracy.enabled
-        self.plant = plant
-        monitor = getattr(plant, "tracking_monitor", None)
-        command_key = getattr(pipeline.allocator, "output", None)
-        self.tracking = monitor(command_key) if monitor is not None and self.enabled else None
+        self.plant, self.conservation = plant, conservation
+        self.tracking = plant.tracking_monitor(command_key) if self.enabled else None
 
     def conserved(self, guard) -> dict[str, tuple]:
         """metric -> (check, threshold key, threshold, what it measures) of the conserved
-        quantities, read at the end of the run: a body torque given at any step (a Python
-        allocator's, a stepped run's command) breaks momentum conservation as much as a configured one."""
-        if self.plant.external_wrench():
-            return {}
-        rows = {"momentum_drift_rel": (CHECK_NAMES[0], "momentum_drift_rel_max", guard.momentum_drift_rel_max,
-                                       "total angular momentum drifted")}
-        if no_feedback_actuator(self.plant.model) and frictionless(self.plant.model):
+        quantities, read at the end of the run (a body torque given at any step breaks them)."""
+        kept = self.conservation.kept_by(self.plant)
+        rows = {}
+        if kept.momentum:
+            rows["momentum_drift_rel"] = (CHECK_NAMES[0], "momentum_drift_rel_max", guard.momentum_drift_rel_max,
+                                          "total angular momentum drifted")
+        if kept.energy:
             rows["energy_drift_rel"] = (CHECK_NAMES[1], "energy_drift_rel_max", guard.energy_drift_rel_max,
                                         "kinetic energy drifted")
         return rows

@@ -15,9 +15,9 @@ BUS_RATE = "bus rate"
 
 def known_rates(scenario, plant) -> dict[str, float]:
     """The model's rates [rad/s] known before the first step: the bus rate at t = 0 and what the
-    plant lists in `step_rates()` (a plant without that method lists none)."""
+    plant lists in `step_rates()` (testbed.plant.Plant)."""
     rates = {BUS_RATE: float(np.linalg.norm(scenario.initial.omega))}
-    rates.update(getattr(plant, "step_rates", dict)())
+    rates.update(plant.step_rates())
     return rates
 
 

@@ -70,17 +70,17 @@ def load_campaign(name: str, overrides: list[str]):
 
 
 def build_and_read_back(scenario, values: dict) -> dict:
-    """Build a case as its run will (testbed.runner.prepare) and check that every value set
+    """Plan a case as its run will (testbed.run_core.plan.prepare) and check that every value set
     reaches the built plant and stages (testbed.campaign.applied_values.NotApplied otherwise); returns what
     its row will hold: the read-back values, the names of its metrics and of its checks; and how
     long it may run (testbed.campaign.case_timeout)."""
     from testbed.metrics import available
     from testbed.campaign.case_timeout import case_timeout_s
     from testbed.campaign.applied_values import applied_values, check_applied
-    from testbed.runner import prepare
+    from testbed.run_core.plan import prepare
 
-    plant, pipeline, _ = prepare(scenario)
-    applied = applied_values(values, scenario, plant, pipeline.stages())
+    plan = prepare(scenario)
+    applied = applied_values(values, scenario, plan.plant, plan.pipeline.stages())
     check_applied(values, applied)
     return {"applied": applied, "metrics": available(scenario), "timeout_s": case_timeout_s(scenario),
             "checks": {name: {"max": limit.max, "min": limit.min} for name, limit in scenario.checks.items()}}
@@ -203,7 +203,7 @@ def open_table(out: Path, name: str, data: dict, cases, args):
     from testbed.campaign.table import CampaignTable, fingerprint, merge_kinds
     from testbed.accuracy.guard import CHECK_NAMES as GUARD_CHECKS
     from testbed.campaign.rows import expected_row, identity_cells
-    from testbed.runner import STATUSES
+    from testbed.run_core.result import STATUSES
     from testbed.recording.output_paths import file_stem, output_path
 
     for path in summary_files(out):

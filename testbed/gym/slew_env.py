@@ -56,7 +56,7 @@ class CmgSlewEnv(SteppedEnv):
             if not value > 0:
                 raise InputError(name, f"must be > 0, got {value!r}")
         super().__init__(scenario, overrides, render_mode, rrd_path)
-        if "target_quat" not in getattr(self.sim.pipeline.law, "statistics", {}):
+        if "target_quat" not in self.sim.pipeline.statistics().get("law", {}):
             raise InputError("pipeline.law.type", "CmgSlew needs a law that declares its target (e.g. slew), "
                                                   f"not {self.sim.scenario.stages['law'][0]}")
         self.action = action
