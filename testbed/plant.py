@@ -76,7 +76,7 @@ class Plant:
             raise RuntimeError(f"MuJoCo's bad-state warnings are not contiguous: {kinds}")
         self._bad_counts = self.data.warning.number[kinds[0]:kinds[-1] + 1]
         self._qvel = self.data.qvel
-        self.record_energy = False  # the runner turns it on where no actuator does work
+        self.record_energy = False  # the run's plan turns it on where energy can be conserved (run_core.conservation)
         self.surroundings = None  # the orbit and its torques (testbed.environment.surroundings), set by the runner
         self.torqued = False  # whether a body torque (an external one) was ever applied
 
