@@ -26,11 +26,12 @@ class Monitors:
     momentum: the run's momentum_drift_rel, energy: energy_drift_rel, where the run's physics
     conserved them (`conservation.kept_by(plant)`, testbed.run_core.conservation); tracking: the
     plant's `tracking_monitor` (a running reduction and its figure), when it has one for what the
-    allocator commands (`command_key`); the step angle from the largest recorded bus rate."""
+    allocator commands (`command_key`); the step angle from the largest recorded bus rate times
+    the physics step `dt` [s]."""
 
-    def __init__(self, scenario, plant, command_key: str | None, conservation):
+    def __init__(self, scenario, plant, command_key: str | None, conservation, dt: float):
         self.enabled = scenario.accuracy.enabled
-        self.plant, self.conservation = plant, conservation
+        self.plant, self.conservation, self.dt = plant, conservation, dt
         self.tracking = plant.tracking_monitor(command_key) if self.enabled else None
 
     def conserved(self, guard) -> dict[str, tuple]:
@@ -66,16 +67,15 @@ class Monitors:
             found[CHECK_NAMES[2]] = (_reduced(data, reduction, figure), guard.tracking_error_rel_max,
                                      "tracking_error_rel_max", what)
         peak = _reduced(data, BUS_RATE_PEAK, float)
-        found[CHECK_NAMES[3]] = (peak * scenario.sim.dt_s, guard.step_angle_max_rad, "step_angle_max_rad",
+        found[CHECK_NAMES[3]] = (peak * self.dt, guard.step_angle_max_rad, "step_angle_max_rad",
                                  f"the {BUS_RATE} reached {peak:.3g} rad/s, in rad a step,")
         return found
 
     def checks(self, scenario, values: dict[str, float], data) -> list[dict]:
         """The failed guard checks of a finished run (rows like testbed.metrics.evaluate_checks's):
         a figure over its threshold; a NaN figure is not judged (its metric's own check reports it)."""
-        dt = scenario.sim.dt_s
         return [{"name": check, "value": value, "limit": f"<= {limit:g}", "passed": False,
-                 "reason": f"{what} {value:.3g} (accuracy.{key} {limit:g}) at dt {dt:g} s: "
+                 "reason": f"{what} {value:.3g} (accuracy.{key} {limit:g}) at dt {self.dt:g} s: "
                            f"lower sim.dt_s, or relax accuracy.{key}"}
                 for check, (value, limit, key, what) in self.figures(scenario, values, data).items()
                 if math.isfinite(value) and value > limit]

@@ -21,13 +21,12 @@ def known_rates(scenario, plant) -> dict[str, float]:
     return rates
 
 
-def refuse_unresolved_step(scenario, plant) -> None:
+def refuse_unresolved_step(scenario, plant, dt: float) -> None:
     """InputError on sim.dt_s when a rate known before the run turns more than the guard's
-    step_angle_max_rad in one step (nothing is run)."""
+    step_angle_max_rad in one physics step of `dt` [s] (nothing is run)."""
     guard = scenario.accuracy
     if not guard.enabled:
         return
-    dt = scenario.sim.dt_s
     for name, rate in known_rates(scenario, plant).items():
         angle = rate * dt
         if angle > guard.step_angle_max_rad:

@@ -7,6 +7,7 @@ import warnings
 import numpy as np
 
 from testbed.recording.recorder import Chunk
+from testbed.references.registry import DeclaredReference
 
 
 class ChunkStream:
@@ -19,14 +20,15 @@ class ChunkStream:
 
     def __init__(self, plant, reference, reductions, writer):
         self.plant, self.reference, self.reductions, self.writer = plant, reference, reductions, writer
+        self.declared = DeclaredReference.of(reference)
         self.reference_error = None
 
     def __call__(self, chunk) -> list[Chunk]:
         with np.errstate(all="ignore"):  # NaN rows of a run cut short are recorded as they are
             chunk.signals.update(self.plant.derived_signals(chunk))
         self._emit(chunk)
-        if self.reference is not None and hasattr(self.reference, "update") and self.reference_error is None:
-            return self._reference(lambda: self.reference.update(chunk))
+        if self.reference is not None and self.declared.streaming and self.reference_error is None:
+            return self._reference(lambda: self.declared.update(chunk))
         return []
 
     def finish(self, recorder) -> None:
@@ -34,8 +36,8 @@ class ChunkStream:
         run, from the recorder's kept history), into `recorder`."""
         if self.reference is None or self.reference_error is not None:
             return
-        if hasattr(self.reference, "update"):
-            rows = self._reference(self.reference.finish)
+        if self.declared.streaming:
+            rows = self._reference(self.declared.finish)
         elif recorder.count > 1:
             rows = self._reference(lambda: reference_chunk(recorder.time, self.reference(recorder.time, recorder),
                                                             recorder["truth/omega"]))

@@ -75,7 +75,7 @@ def prepare(scenario, stages: dict | None = None) -> RunPlan:
         plant.surroundings = surroundings.prepare(scenario, plant)
         ctx = stage_context(scenario, plant.locked_inertia(), plant.description(), plant.actuator_state(),
                             plant.internal_momentum_body())
-    refuse_unresolved_step(scenario, plant)  # the accuracy guard's step-size check, before the stages
+    refuse_unresolved_step(scenario, plant, Timing.of(scenario.sim).dt_s)  # the accuracy guard's, before the stages
     with np.errstate(all="raise"):
         pipeline = Pipeline.from_config(scenario.stages, ctx, plant.actuators)
     output = pipeline.declared["allocator"].output
@@ -98,13 +98,14 @@ def _given_types(pipeline, stages: dict) -> dict:
 def _planned(scenario, plant, pipeline, reference, given_types: dict) -> RunPlan:
     """The plan of a run of what was built: what it keeps, reduces and monitors."""
     keep = metrics.kept_signals(scenario)
-    if reference is not None and not hasattr(reference, "update") and keep is not None:
-        keep |= set(getattr(reference, "signals", None) or ()) | {"truth/omega"}
-        if getattr(reference, "signals", None) is None:
-            keep = None  # a reference that does not say what it reads sees everything
+    declared = references_registry.DeclaredReference.of(reference)
+    if reference is not None and not declared.streaming and keep is not None:
+        # a reference evaluated on the whole run reads the kept history; one that does not say what it reads, all of it
+        keep = None if declared.signals is None else keep | set(declared.signals) | {"truth/omega"}
     conservation = Conservation.of(scenario)
-    monitors = Monitors(scenario, plant, pipeline.declared["allocator"].output, conservation)
-    return RunPlan(scenario, plant, pipeline, reference, Timing.of(scenario.sim),
+    timing = Timing.of(scenario.sim)
+    monitors = Monitors(scenario, plant, pipeline.declared["allocator"].output, conservation, timing.dt_s)
+    return RunPlan(scenario, plant, pipeline, reference, timing,
                    None if keep is None else frozenset(keep),
                    tuple(metrics.reductions(scenario) + monitors.reductions()), conservation, monitors, given_types)
 
