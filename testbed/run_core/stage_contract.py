@@ -82,6 +82,9 @@ class Declared:
     needs_actuators: bool = True       # allocator: reads the actuators' read-outs (False: open loop)
     returns_nothing: bool = False      # a built-in empty slot, which the tick does not call
     statistics: dict | None = None     # counts over every control step that metrics read after the run
+    params: Any = None                 # the validated parameters it was built from (a campaign reads them back)
+    applied: Callable | None = None    # applied() -> {parameter: value as the stage runs it}, where that
+    #                                    differs from `params` (testbed.campaign.applied_values)
 
     @classmethod
     def of(cls, stage) -> "Declared":
