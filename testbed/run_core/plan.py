@@ -52,8 +52,8 @@ class RunPlan:
     def with_stages(self, stages: dict) -> "RunPlan":
         """This plan with each Python object of `stages` (slot -> object) in its slot
         (`install_stages`), its monitors read again from the stages now in place."""
-        install_stages(self.pipeline, self.plant, stages)
-        return _planned(self.scenario, self.plant, self.pipeline, self.reference,
+        install_stages(self.pipeline, self.plant, stages)  # into the one pipeline both plans hold
+        return _planned(self.scenario, self.plant, self.pipeline, self.reference, self.timing,
                         self.given_types | _given_types(self.pipeline, stages))
 
 
@@ -66,6 +66,7 @@ def prepare(scenario, stages: dict | None = None) -> RunPlan:
     input, named by the part being built (model, pipeline slot, reference)."""
     given = scenario  # what the run reports on; built from:
     scenario = surroundings.in_orbit(scenario)  # an initial state given in LVLH, in ECI
+    timing = Timing.of(scenario.sim)
     built_from = {"model": scenario.model, "initial": scenario.initial, "orbit": scenario.orbit,
                   "environment": scenario.environment}
     with np.errstate(all="raise"), refused_as("model", params=built_from):
@@ -75,7 +76,7 @@ def prepare(scenario, stages: dict | None = None) -> RunPlan:
         plant.surroundings = surroundings.prepare(scenario, plant)
         ctx = stage_context(scenario, plant.locked_inertia(), plant.description(), plant.actuator_state(),
                             plant.internal_momentum_body())
-    refuse_unresolved_step(scenario, plant, Timing.of(scenario.sim).dt_s)  # the accuracy guard's, before the stages
+    refuse_unresolved_step(scenario, plant, timing.dt_s)  # the accuracy guard's step-size check, before the stages
     with np.errstate(all="raise"):
         pipeline = Pipeline.from_config(scenario.stages, ctx, plant.actuators)
     output = pipeline.declared["allocator"].output
@@ -88,14 +89,14 @@ def prepare(scenario, stages: dict | None = None) -> RunPlan:
     reference_params = {"reference": scenario.reference[1]} if scenario.reference else {}
     with np.errstate(all="raise"), refused_as("reference", params=reference_params):
         reference = references_registry.prepare(scenario, plant) if scenario.reference else None
-    return _planned(given, plant, pipeline, reference, _given_types(pipeline, stages or {}))
+    return _planned(given, plant, pipeline, reference, timing, _given_types(pipeline, stages or {}))
 
 
 def _given_types(pipeline, stages: dict) -> dict:
     return {slot: type_of_given(pipeline.stages()[slot]) for slot in stages}
 
 
-def _planned(scenario, plant, pipeline, reference, given_types: dict) -> RunPlan:
+def _planned(scenario, plant, pipeline, reference, timing: Timing, given_types: dict) -> RunPlan:
     """The plan of a run of what was built: what it keeps, reduces and monitors."""
     keep = metrics.kept_signals(scenario)
     declared = references_registry.DeclaredReference.of(reference)
@@ -103,7 +104,6 @@ def _planned(scenario, plant, pipeline, reference, given_types: dict) -> RunPlan
         # a reference evaluated on the whole run reads the kept history; one that does not say what it reads, all of it
         keep = None if declared.signals is None else keep | set(declared.signals) | {"truth/omega"}
     conservation = Conservation.of(scenario)
-    timing = Timing.of(scenario.sim)
     monitors = Monitors(scenario, plant, pipeline.declared["allocator"].output, conservation, timing.dt_s)
     return RunPlan(scenario, plant, pipeline, reference, timing,
                    None if keep is None else frozenset(keep),
@@ -124,7 +124,7 @@ def stage_context(scenario, inertia, description=None, actuators=None, internal_
     """What the stages of `scenario` may know at construction (testbed.run_core.stage_contract.StageContext);
     `actuators`: the plant's actuator read-outs at t = 0, `internal_momentum` its H(0)."""
     sim = scenario.sim
-    timing = Timing.of(sim)
+    timing = Timing.of(sim)  # (a stage built outside a run, e.g. in a test, has no plan)
     return StageContext(dt=timing.dt_s, control_period=timing.control_period_s, sample_period=timing.sample_period_s,
                         inertia=inertia,
                         internal_momentum=np.zeros(3) if internal_momentum is None else internal_momentum,
