@@ -8,7 +8,7 @@ from testbed.errors import quoted
 from testbed.run_core.stage_contract import StageFailed
 
 
-# Keys whose shape the slot's interface fixes (see the module doc); a command key's shape
+# Keys whose shape the slot's interface fixes (testbed.run_core.stage_contract); a command key's shape
 # comes from the plant (`Plant.actuators`).
 INTERFACE_SHAPES = {"law": {"torque": (3,)}}
 
