@@ -88,7 +88,10 @@ class Declared:
 
     @classmethod
     def of(cls, stage) -> "Declared":
-        return cls(**{f.name: getattr(stage, f.name, f.default) for f in dataclasses.fields(cls)})
+        return cls(**{name: getattr(stage, name, default) for name, default in _DECLARED_DEFAULTS})
+
+
+_DECLARED_DEFAULTS = tuple((f.name, f.default) for f in dataclasses.fields(Declared))
 
 
 class Sensor(Protocol):

@@ -37,30 +37,33 @@ class Pipeline:
         self.demand: dict[str, np.ndarray] = {}
         self.command: dict[str, np.ndarray] = {}
         self.checks = dict(checks or {})
+        self.declared = {slot: Declared.of(stage_object) for slot, stage_object in self.stages().items()}
         self._wire()
 
     def _wire(self) -> None:
-        """Which stages the tick calls and checks, from the stages and checks now in place."""
-        self.declared = {slot: Declared.of(stage_object) for slot, stage_object in self.stages().items()}
+        """Which stages the tick calls and checks, from the stages (`declared`) and checks now in place."""
         # open-loop allocators ignore the actuator read-outs: skip reading them
         self._needs_actuators = self.declared["allocator"].needs_actuators
         # a law that compensates w x H itself reads the internal momentum (testbed.attitude_laws.momentum_input)
         self._law_reads_momentum = "internal_momentum" in self.declared["law"].inputs
         # a built-in empty slot, which always returns nothing, is not called
-        self._sensing, self._estimating, self._controlling, self._allocating = (
-            not (_is_builtin(stage_object) and self.declared[slot].returns_nothing)
-            for slot, stage_object in self.stages().items())
-        self._sensor_check, self._estimator_check, self._law_check, self._allocator_check = (
-            self.checks.get(slot) for slot in SLOTS)
+        declared, checks = self.declared, self.checks
+        self._sensing = not (declared["sensor"].returns_nothing and _is_builtin(self.sensor))
+        self._estimating = not (declared["estimator"].returns_nothing and _is_builtin(self.estimator))
+        self._controlling = not (declared["law"].returns_nothing and _is_builtin(self.law))
+        self._allocating = not (declared["allocator"].returns_nothing and _is_builtin(self.allocator))
+        self._sensor_check, self._estimator_check = checks.get("sensor"), checks.get("estimator")
+        self._law_check, self._allocator_check = checks.get("law"), checks.get("allocator")
         self.__dict__.pop("tick", None)
         if self._allocating and not (self._sensing or self._estimating or self._controlling):
             self.tick = self._allocate  # an open-loop command: the allocator alone
 
-    def set_stage(self, slot: str, stage_object, check: "OutputCheck | None") -> None:
+    def set_stage(self, slot: str, stage_object, check: "OutputCheck | None", declared: Declared | None = None) -> None:
         """Put `stage_object` in `slot`, its output checked by `check` at every tick (None: not
         checked), in place of the stage there (testbed.stepping: a Python object as a stage, or
         a command given for one step)."""
         setattr(self, slot, stage_object)
+        self.declared[slot] = Declared.of(stage_object) if declared is None else declared
         self.checks.pop(slot, None)
         if check is not None:
             self.checks[slot] = check

@@ -118,14 +118,15 @@ class Simulation:
             return self.outputs
         given = self._given(command)
         pipeline = run.pipeline
-        saved = {slot: (pipeline.stages()[slot], pipeline.checks.get(slot)) for slot in given}
+        stages = pipeline.stages()
+        saved = {slot: (stages[slot], pipeline.checks.get(slot), pipeline.declared[slot]) for slot in given}
         for slot, stage in given.items():
             pipeline.set_stage(slot, stage, None)
         try:
             run.advance(1)
         finally:
-            for slot, (stage, check) in saved.items():
-                pipeline.set_stage(slot, stage, check)
+            for slot, (stage, check, declared) in saved.items():
+                pipeline.set_stage(slot, stage, check, declared)
         return self.outputs
 
     def close(self) -> RunResult | None:
