@@ -85,7 +85,8 @@ def run(args) -> int:
     with reserved_for_json(args.json):
         name, data, cases = load_cases(args.scenario, args.set)
         out = output_folder(args, name)
-        table, done = open_table(out, name, data, cases, args.set, args.resume)  # refuses a damaged folder; writes nothing
+        # refuses a damaged folder; writes nothing
+        table, done = open_table(out, name, data, cases, args.set, args.resume)
         if args.rrd:
             check_case_traces(out, cases)
         clamped = engine.at_most(len(cases))

@@ -85,7 +85,8 @@ class RunInProgress:
     def __init__(self, plan: RunPlan, out=None, keep_data=False, live=None, wall0=None):
         self.wall0 = time.perf_counter() if wall0 is None else wall0
         self.plan, self.out, self.keep_data = plan, out, keep_data
-        self.scenario, self.plant, self.pipeline, self.reference = plan.scenario, plan.plant, plan.pipeline, plan.reference
+        self.scenario, self.plant, self.pipeline = plan.scenario, plan.plant, plan.pipeline
+        self.reference = plan.reference
         timing = plan.timing
         self.n_ticks = timing.n_ticks
         self.ticks_done = 0
@@ -93,7 +94,8 @@ class RunInProgress:
         self.momentum_scale = self.plant.momentum_scale()  # at t = 0
         self.reductions = Reductions(plan.reductions)
         self.status, self.error = "ok", None
-        footer = timing.loop_steps // timing.trace_every <= trace.FOOTER_MAX_SAMPLES  # a long run: no footer (recording_to)
+        # a long run: no footer (recording_to)
+        footer = timing.loop_steps // timing.trace_every <= trace.FOOTER_MAX_SAMPLES
         self._context = contextlib.ExitStack()
         rec = (self._context.enter_context(trace.recording_to(out, live=live, footer=footer))
                if out is not None or live is not None else None)

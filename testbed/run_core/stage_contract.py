@@ -1,7 +1,8 @@
 """The control pipeline: sensor -> estimator -> control law -> allocator, chosen by name.
 
 Each slot holds one stage, registered with `@stage(slot, name, Params)`
-(testbed.run_core.stage_registry). Stages see only what their slot is given, so nothing downstream of the sensor can read the true state:
+(testbed.run_core.stage_registry). Stages see only what their slot is given, so nothing
+downstream of the sensor can read the true state:
 
 - sensor     `measure(t, plant) -> dict`                 (the only stage that sees truth)
 - estimator  `estimate(t, measurement, command) -> dict`  (`command`: last allocator output)

@@ -58,10 +58,11 @@ class Pipeline:
         if self._allocating and not (self._sensing or self._estimating or self._controlling):
             self.tick = self._allocate  # an open-loop command: the allocator alone
 
-    def set_stage(self, slot: str, stage_object, check: "OutputCheck | None", declared: Declared | None = None) -> None:
+    def set_stage(self, slot: str, stage_object, check: "OutputCheck | None",
+                  declared: Declared | None = None) -> None:
         """Put `stage_object` in `slot`, its output checked by `check` at every tick (None: not
         checked), in place of the stage there (testbed.stepping: a Python object as a stage, or
-        a command given for one step)."""
+        a command given for one step); `declared`: its declarations, if read already."""
         setattr(self, slot, stage_object)
         self.declared[slot] = Declared.of(stage_object) if declared is None else declared
         self.checks.pop(slot, None)

@@ -39,7 +39,8 @@ class Timing:
                    steps_per_tick=round(sim.control_period_s / sim.dt_s),
                    steps_per_sample=round(sim.estimator_period_s / sim.dt_s), samples_per_tick=samples_per_tick,
                    trace_every=round(sim.trace_period_s / loop_period),
-                   envelope_rows=1 if sim.trace_envelope_s is None else round(sim.trace_envelope_s / sim.trace_period_s))
+                   envelope_rows=(1 if sim.trace_envelope_s is None
+                                  else round(sim.trace_envelope_s / sim.trace_period_s)))
 
     @property
     def multirate(self) -> bool:

@@ -72,7 +72,7 @@ class Simulation:
         self._stages, self._keep_trace = stages, keep_trace
         self._run: RunInProgress | None = None
         self._closed = False  # the episode's result is made: it is read, no longer stepped
-        self._guards = None  # one BLAS thread and os._exit raising, while open (testbed.run_core.in_progress.run_scenario's)
+        self._guards = None  # one BLAS thread and os._exit raising, while open (as in_progress.run_scenario)
         self.result: RunResult | None = None  # the last episode's, once it is closed
         try:
             self.reset(seed)
