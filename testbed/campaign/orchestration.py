@@ -132,18 +132,21 @@ def open_table(out: Path, name: str, data: dict, cases, overrides: list[str], re
 def run_into(table, done: dict, cases, engine, rrd_dir: Path | None, case_timeout_s: float | None,
              progress=None) -> list[dict]:
     """Run the cases the table does not hold yet (`done`), each row into it as its case
-    finishes (`progress(cases finished, of which failed)`, counting the rows held before); on
-    Ctrl-C (or any failure) the table is closed with every finished row, then the stop goes on."""
+    finishes; on Ctrl-C (or any failure) the table is closed with every finished row, then the
+    stop goes on. `progress`: a context manager (a progress bar, closed before a stop is
+    reported) whose value is called as `advance(cases finished, of which failed)`, counting the
+    rows held before."""
     from testbed.campaign.rows import run_cases
 
     todo = [case for case in cases if case.index not in done]
     failed_before = sum(not row["passed"] for row in done.values())
     try:
-        if progress is not None:
-            progress(len(done), failed_before)
-        run_cases(todo, rrd_dir=rrd_dir, on_row=table.append, engine=engine, case_timeout_s=case_timeout_s,
-                  progress=None if progress is None else
-                  lambda count, total, failed: progress(len(done) + count, failed_before + failed))
+        with progress if progress is not None else contextlib.nullcontext() as advance:
+            if advance is not None:
+                advance(len(done), failed_before)
+            run_cases(todo, rrd_dir=rrd_dir, on_row=table.append, engine=engine, case_timeout_s=case_timeout_s,
+                      progress=None if advance is None else
+                      lambda count, total, failed: advance(len(done) + count, failed_before + failed))
         return table.close()
     except WriteFailed as exc:  # a full disk: one line, the rows the CSV holds are kept for --resume
         with contextlib.suppress(WriteFailed):

@@ -21,6 +21,7 @@ runs or is written), 130 on Ctrl-C.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
 from pathlib import Path
@@ -95,10 +96,8 @@ def run(args) -> int:
             if clamped:  # after the start: a refused start is its one line
                 print(f"note: --workers {args.workers} for {len(cases)} cases: started {len(cases)}", file=sys.stderr)
             table.start()
-            with progress_bar(f"sweep {table.csv_path.stem}", len(cases), "cases") as bar:
-                bar.disable = bar.disable or args.json
-                rows = run_into(table, done, cases, engine, out if args.rrd else None, case_timeout,
-                                lambda count, failed: advance_to(bar, count, failed=failed))
+            rows = run_into(table, done, cases, engine, out if args.rrd else None, case_timeout,
+                            _cases_bar(table.csv_path.stem, len(cases), args.json))
         lines = summarise(name, data, rows, cases, out, args.scenario, args.set)
 
     def report():
@@ -110,6 +109,14 @@ def run(args) -> int:
               f"table {table.csv_path} (and .parquet), summary in {out / 'summary'}")
         print("\n".join(lines))
     return reported(EXIT_OK if all(r["passed"] for r in rows) else EXIT_FAILED, report)
+
+
+@contextlib.contextmanager
+def _cases_bar(name: str, total: int, quiet: bool):
+    """The campaign's progress bar; its value advances it to (cases finished, of which failed)."""
+    with progress_bar(f"sweep {name}", total, "cases") as bar:
+        bar.disable = bar.disable or quiet
+        yield lambda count, failed: advance_to(bar, count, failed=failed)
 
 
 def _rerun_case(args) -> int:
