@@ -20,7 +20,8 @@ from pathlib import Path
 
 from testbed.errors import InputError
 from testbed.math.validation import existing_file
-from testbed.runner import STATUSES, RunResult, run_scenario
+from testbed.run_core.in_progress import run_scenario
+from testbed.run_core.result import STATUSES, RunResult
 from testbed.scenario.loading import Scenario, load_scenario, parse
 from testbed.scenario.yaml_reading import as_loaded
 from testbed.recording.output_paths import CheckedPath, output_path
@@ -43,11 +44,11 @@ def run(scenario: Scenario | str | Path | dict, out: str | Path | None = None,
     return its result with the whole trace; `out` (a path) also writes the `.rrd` there, checked
     before the run (testbed.recording.output_paths). `keep_trace=False` keeps only what the
     metrics need (memory flat however long the run); `live`: a viewer stream the run is also
-    sent to (testbed.recording.live_view.ViewerStream); `prepared`: what `testbed.runner.prepare(scenario)` built, if it was built to
-    check the scenario before this run. `stages`: slot -> a Python object that takes that
-    slot's place, with no registration (`{"law": my_law}`: an object with the slot's method,
-    e.g. `torque(t, estimate)`, or a function called as it), held to a plug-in's output checks
-    (docs/stepping.md)."""
+    sent to (testbed.recording.live_view.ViewerStream); `prepared`: the run's plan
+    (`testbed.run_core.plan.prepare(scenario)`), if it was made to check the scenario before this
+    run. `stages`: slot -> a Python object that takes that slot's place, with no registration
+    (`{"law": my_law}`: an object with the slot's method, e.g. `torque(t, estimate)`, or a function
+    called as it), held to a plug-in's output checks (docs/stepping.md)."""
     if out is not None and not isinstance(out, (str, os.PathLike)):
         raise InputError("out", f"must be a file path (str or pathlib.Path) or None, got {type(out).__name__}")
     if progress is not None and not callable(progress):

@@ -16,13 +16,12 @@ from typing import Callable
 
 import numpy as np
 
-from testbed import pipeline
-from testbed.appendages.params import has_appendages
 from testbed.systems.registry import is_free_flying
 from testbed.errors import InputError, described, error_line
 from testbed.interrupts import from_a_signal
 from testbed.recording import spectra
 from testbed.recording.reductions import First, Last, MaxDistanceFromFirst, MaxNorm
+from testbed.run_core.conservation import Conservation
 from testbed.registry import Registry
 
 
@@ -174,9 +173,11 @@ def _free_flying(scenario) -> bool:
 
 
 def _conserves_momentum(scenario) -> bool:
-    """A free body whose actuators are all internal (no ideal external torque, no environment torque)."""
-    return (_free_flying(scenario) and scenario.environment is None
-            and pipeline.output_of("allocator", scenario.stages["allocator"][0]) != "body_torque")
+    return Conservation.of(scenario).momentum
+
+
+def _conserves_energy(scenario) -> bool:
+    return Conservation.of(scenario).energy
 
 
 MOMENTUM_DRIFT = MaxDistanceFromFirst("truth/angular_momentum_world")
@@ -191,12 +192,7 @@ def momentum_drift_rel(run) -> float:
     return float(run.reduced(MOMENTUM_DRIFT) / run.momentum_scale)
 
 
-def _kinetic_energy_conserved(scenario) -> bool:
-    """No actuator works, no environment, and no appendage's spring or damper trades energy."""
-    return scenario.stages["allocator"][0] == "none" and scenario.environment is None and not has_appendages(scenario)
-
-
-@metric("energy_drift_rel", applies=_kinetic_energy_conserved, uses=(ENERGY_DRIFT, ENERGY_FIRST))
+@metric("energy_drift_rel", applies=_conserves_energy, uses=(ENERGY_DRIFT, ENERGY_FIRST))
 def energy_drift_rel(run) -> float:
     """max |T(t) - T(0)| / T(0) of the kinetic energy (no actuator does work, no appendage)."""
     return float(run.reduced(ENERGY_DRIFT) / max(abs(run.reduced(ENERGY_FIRST)[0]), 1e-300))

@@ -81,7 +81,7 @@ class Plant:
             raise RuntimeError(f"MuJoCo's bad-state warnings are not contiguous: {kinds}")
         self._bad_counts = self.data.warning.number[kinds[0]:kinds[-1] + 1]
         self._qvel = self.data.qvel
-        self.record_energy = False  # the runner turns it on where no actuator does work
+        self.record_energy = False  # the run's plan turns it on where energy can be conserved (run_core.conservation)
         self.surroundings = None  # the orbit and its torques (testbed.environment.surroundings), set by the runner
         self.torqued = False  # whether a body torque (an external one) was ever applied
 
@@ -214,6 +214,16 @@ class Plant:
         """Whether a force from outside the system acted on it (a body torque applied, the environment's
         torques): then neither momentum nor energy is conserved (the accuracy guard reads it). A system adds its own."""
         return self.torqued or (self.surroundings is not None and self.surroundings.params is not None)
+
+    def step_rates(self) -> dict[str, float]:
+        """Rates [rad/s] whose angle a physics step must resolve, known before the run, by what
+        they are (the accuracy guard's step-size check, testbed.accuracy.step_size); none here."""
+        return {}
+
+    def tracking_monitor(self, command_key: str | None):
+        """(running reduction, figure(state), what it measures) of how far the actuators missed
+        the command `command_key` (the accuracy guard's tracking monitor), or None: none here."""
+        return None
 
     def description(self):
         """Static design data controllers may use (e.g. an actuator cluster's geometry)."""

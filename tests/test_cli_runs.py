@@ -222,16 +222,16 @@ def test_a_run_that_builds_slowly_says_so_on_a_terminal(tmp_path, monkeypatch, c
     BUILD_NOTICE_S = 1 s; the run then goes on as ever."""
     import time
 
-    import testbed.runner
+    import testbed.run_core.plan
     from testbed.cli import progress
 
-    real = testbed.runner.prepare
+    real = testbed.run_core.plan.prepare
 
     def slow(*args, **kwargs):
         time.sleep(progress.BUILD_NOTICE_S + 0.3)
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(testbed.runner, "prepare", slow)
+    monkeypatch.setattr(testbed.run_core.plan, "prepare", slow)
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
     assert main(["run", "gyrostat_free", "--set", "sim.duration_s=0.5", "--out", str(tmp_path / "g.rrd")]) == 0
     err = capsys.readouterr().err

@@ -53,7 +53,8 @@ def test_the_site_builds_strict_with_its_api_reference(tmp_path):
     done = mkdocs_build(ROOT / "mkdocs.yml", tmp_path / "site")
     assert done.returncode == 0, done.stderr[-4000:]
     reference = (tmp_path / "site" / "reference" / "index.html").read_text(encoding="utf-8")
-    for name in ("testbed.api.run", "testbed.runner.RunResult", "testbed.pipeline.Law", "testbed.pipeline.StageContext",
+    for name in ("testbed.api.run", "testbed.run_core.result.RunResult", "testbed.run_core.stage_contract.Law",
+                 "testbed.run_core.stage_contract.StageContext", "testbed.run_core.plan.RunPlan",
                  "testbed.systems.registry.system", "testbed.plugins.load_plugins", "testbed.errors.InputError"):
         assert f'id="{name}"' in reference, name
     pages = {p.relative_to(ROOT / "docs").with_suffix("").as_posix() for p in (ROOT / "docs").rglob("*.md")}

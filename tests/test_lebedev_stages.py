@@ -136,14 +136,15 @@ def test_estimator_sees_only_the_gyro_and_its_error_follows_the_observer(spinup)
     and its start-up estimate equals an independent continuous simulation of body + observer
     (3.1) fed with p . w, not the true rate."""
     from testbed.recording.recorder import Recorder
-    from testbed.runner import _loop
+    from testbed.run_core.loop import run_ticks
+    from testbed.run_core.timing import Timing
 
     scenario = load_scenario("lebedev_spinup_ideal", HELD_Y + ["sim.duration_s=1"])
     plant, pipeline, _ = prepare(scenario)
     seen = []
     original = pipeline.estimator.estimate
     pipeline.estimator.estimate = lambda t, m, c: seen.append((set(m), set(c))) or original(t, m, c)
-    _loop(plant, pipeline, Recorder(100), 0, 20, 1, scenario.sim, None, 20)
+    run_ticks(plant, pipeline, Recorder(100), 0, 20, Timing.of(scenario.sim))
     assert len(seen) == 20 and all(m == {"y", "stamp"} for m, _ in seen)
     assert all(c <= {"body_torque"} for _, c in seen)
 

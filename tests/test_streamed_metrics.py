@@ -18,7 +18,7 @@ import math
 import numpy as np
 import pytest
 
-import testbed.runner
+import testbed.run_core.in_progress
 from testbed import metrics
 from testbed.recording import reductions
 from testbed.recording.recorder import Chunk, Recorder
@@ -129,7 +129,7 @@ def whole_history_metrics(name: str) -> dict[str, float]:
 
 
 def streamed_metrics(name: str, monkeypatch) -> dict[str, float]:
-    monkeypatch.setattr(testbed.runner, "Recorder", functools.partial(Recorder, chunk_rows=CHUNK))
+    monkeypatch.setattr(testbed.run_core.in_progress, "Recorder", functools.partial(Recorder, chunk_rows=CHUNK))
     result = run_scenario(load_scenario(name, SHORT.get(name, [])), None)
     assert result.status == "ok", result.error
     return result.metrics
@@ -188,7 +188,7 @@ def test_a_run_cut_short_gives_the_whole_history_metrics(tmp_path, monkeypatch):
     recorder = whole.data.recorder
     history = Chunk(0, recorder.time, {key: recorder[key] for key in recorder.keys() if key in recorder})
     expected, _ = metrics.compute_all(dataclasses.replace(whole.data, reductions=_WholeHistory(history), _shared={}))
-    monkeypatch.setattr(testbed.runner, "Recorder", functools.partial(Recorder, chunk_rows=CHUNK))
+    monkeypatch.setattr(testbed.run_core.in_progress, "Recorder", functools.partial(Recorder, chunk_rows=CHUNK))
     streamed = run_scenario(scenario, None).metrics
     for key in ("spin_error_steady_deg_s", "spin_rate_offset_deg_s", "transverse_rate_steady_deg_s",
                 "estimation_error_final_deg_s", "estimation_error_at_closing_deg_s"):

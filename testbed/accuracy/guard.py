@@ -12,8 +12,6 @@ from __future__ import annotations
 
 import math
 
-import mujoco
-
 from testbed.accuracy.step_size import BUS_RATE
 from testbed.recording.reductions import MaxNorm
 
@@ -22,50 +20,29 @@ BUS_RATE_PEAK = MaxNorm("truth/omega")
 CHECK_NAMES = ("accuracy:momentum_drift", "accuracy:energy_drift", "accuracy:tracking", "accuracy:step_angle")
 
 
-def no_feedback_actuator(model) -> bool:
-    """Whether every actuator of the compiled model is a plain motor (no bias term): with nothing
-    commanded it gives no force, so nothing works on the system. A servo (a position or
-    velocity loop, MuJoCo's bias) holds its set-point and works against what moves it."""
-    return all(int(b) == mujoco.mjtBias.mjBIAS_NONE for b in model.actuator_biastype)
-
-
-def frictionless(model) -> bool:
-    """Whether no joint of the compiled model has friction (damping or frictionloss): friction
-    between two bodies is internal, it keeps the momentum but takes energy away."""
-    return not (model.dof_damping.any() or model.dof_frictionloss.any())
-
-
-def springless(model) -> bool:
-    """Whether no joint of the compiled model has a spring (a panel hinge, a slosh slide): a
-    spring stores energy, so the kinetic energy alone is not conserved."""
-    return not model.jnt_stiffness.any()
-
-
 class Monitors:
     """The guard's monitors of one run, chosen once the plant and pipeline are built.
 
-    momentum: the run's momentum_drift_rel, where no external torque acted (no environment, no
-    body torque given at any step, no external wrench of the plant's own: `Plant.external_wrench`); energy: energy_drift_rel, where moreover no actuator works
-    (`no_feedback_actuator`), no joint has friction (`frictionless`) nor a spring (`springless`); tracking: the plant's `tracking_monitor` (a running reduction and
-    its figure), when it has one for what the allocator commands; the step angle from the
-    largest recorded bus rate."""
+    momentum: the run's momentum_drift_rel, energy: energy_drift_rel, where the run's physics
+    conserved them (`conservation.kept_by(plant)`, testbed.run_core.conservation); tracking: the
+    plant's `tracking_monitor` (a running reduction and its figure), when it has one for what the
+    allocator commands (`command_key`); the step angle from the largest recorded bus rate times
+    the physics step `dt` [s]."""
 
-    def __init__(self, scenario, plant, pipeline):
+    def __init__(self, scenario, plant, command_key: str | None, conservation, dt: float):
         self.enabled = scenario.accuracy.enabled
-        self.plant = plant
-        monitor = getattr(plant, "tracking_monitor", None)
-        command_key = getattr(pipeline.allocator, "output", None)
-        self.tracking = monitor(command_key) if monitor is not None and self.enabled else None
+        self.plant, self.conservation, self.dt = plant, conservation, dt
+        self.tracking = plant.tracking_monitor(command_key) if self.enabled else None
 
     def conserved(self, guard) -> dict[str, tuple]:
         """metric -> (check, threshold key, threshold, what it measures) of the conserved
-        quantities, read at the end of the run: a body torque given at any step (a Python
-        allocator's, a stepped run's command) breaks momentum conservation as much as a configured one."""
-        if self.plant.external_wrench():
-            return {}
-        rows = {"momentum_drift_rel": (CHECK_NAMES[0], "momentum_drift_rel_max", guard.momentum_drift_rel_max,
-                                       "total angular momentum drifted")}
-        if no_feedback_actuator(self.plant.model) and frictionless(self.plant.model) and springless(self.plant.model):
+        quantities, read at the end of the run (a body torque given at any step breaks them)."""
+        kept = self.conservation.kept_by(self.plant)
+        rows = {}
+        if kept.momentum:
+            rows["momentum_drift_rel"] = (CHECK_NAMES[0], "momentum_drift_rel_max", guard.momentum_drift_rel_max,
+                                          "total angular momentum drifted")
+        if kept.energy:
             rows["energy_drift_rel"] = (CHECK_NAMES[1], "energy_drift_rel_max", guard.energy_drift_rel_max,
                                         "kinetic energy drifted")
         return rows
@@ -90,16 +67,15 @@ class Monitors:
             found[CHECK_NAMES[2]] = (_reduced(data, reduction, figure), guard.tracking_error_rel_max,
                                      "tracking_error_rel_max", what)
         peak = _reduced(data, BUS_RATE_PEAK, float)
-        found[CHECK_NAMES[3]] = (peak * scenario.sim.dt_s, guard.step_angle_max_rad, "step_angle_max_rad",
+        found[CHECK_NAMES[3]] = (peak * self.dt, guard.step_angle_max_rad, "step_angle_max_rad",
                                  f"the {BUS_RATE} reached {peak:.3g} rad/s, in rad a step,")
         return found
 
     def checks(self, scenario, values: dict[str, float], data) -> list[dict]:
         """The failed guard checks of a finished run (rows like testbed.metrics.evaluate_checks's):
         a figure over its threshold; a NaN figure is not judged (its metric's own check reports it)."""
-        dt = scenario.sim.dt_s
         return [{"name": check, "value": value, "limit": f"<= {limit:g}", "passed": False,
-                 "reason": f"{what} {value:.3g} (accuracy.{key} {limit:g}) at dt {dt:g} s: "
+                 "reason": f"{what} {value:.3g} (accuracy.{key} {limit:g}) at dt {self.dt:g} s: "
                            f"lower sim.dt_s, or relax accuracy.{key}"}
                 for check, (value, limit, key, what) in self.figures(scenario, values, data).items()
                 if math.isfinite(value) and value > limit]

@@ -15,19 +15,18 @@ BUS_RATE = "bus rate"
 
 def known_rates(scenario, plant) -> dict[str, float]:
     """The model's rates [rad/s] known before the first step: the bus rate at t = 0 and what the
-    plant lists in `step_rates()` (a plant without that method lists none)."""
+    plant lists in `step_rates()` (testbed.plant.Plant)."""
     rates = {BUS_RATE: float(np.linalg.norm(scenario.initial.omega))}
-    rates.update(getattr(plant, "step_rates", dict)())
+    rates.update(plant.step_rates())
     return rates
 
 
-def refuse_unresolved_step(scenario, plant) -> None:
+def refuse_unresolved_step(scenario, plant, dt: float) -> None:
     """InputError on sim.dt_s when a rate known before the run turns more than the guard's
-    step_angle_max_rad in one step (nothing is run)."""
+    step_angle_max_rad in one physics step of `dt` [s] (nothing is run)."""
     guard = scenario.accuracy
     if not guard.enabled:
         return
-    dt = scenario.sim.dt_s
     for name, rate in known_rates(scenario, plant).items():
         angle = rate * dt
         if angle > guard.step_angle_max_rad:

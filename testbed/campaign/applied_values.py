@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from testbed.errors import quoted
+from testbed.run_core.stage_contract import Declared
 from testbed.scenario.loading import field_value
 from testbed.scenario.schema import is_number
 
@@ -45,10 +46,11 @@ def read_back(path: str, scenario, plant_values: dict, stages: dict) -> tuple[An
         stage, key, rest = stages[parts[1]], parts[2], parts[3:]
         if key == "type" and not rest:
             return stage.type_name, "stage"
-        own = stage.applied() if hasattr(stage, "applied") else {}
+        declared = Declared.of(stage)
+        own = {} if declared.applied is None else declared.applied()
         if key in own:
             return _descend(own[key], rest, path, scenario)
-        params = getattr(stage, "params", None)
+        params = declared.params
         if params is not None and key in getattr(params, "__dataclass_fields__", {}):
             return _descend(getattr(params, key), rest, path, scenario)
     return _plain(field_value(scenario, path)), "scenario"

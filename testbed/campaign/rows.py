@@ -41,7 +41,7 @@ def flat(values: dict, prefix: str = "") -> dict:
 
 def failure_cause(status: str, error: str, checks: list[dict]) -> str:
     """Why a case did not pass, on one line: a run that stopped early, its error (a diverged
-    plant, a method that left its validity, a stage's failure: testbed.runner.RunResult); a run
+    plant, a method that left its validity, a stage's failure: testbed.run_core.result.RunResult); a run
     that ended, the checks it failed with their values and limits; "" when it passed."""
     if status != "ok":
         return error
@@ -82,7 +82,7 @@ def run_case(case: Case, rrd: str | None = None, raises: tuple[type[BaseExceptio
     written is its command's failure, not a row)."""
     from testbed.accuracy.guard import CHECK_NAMES as GUARD_CHECKS
     from testbed.campaign.applied_values import applied_values, check_applied
-    from testbed.runner import run_scenario
+    from testbed.run_core.in_progress import run_scenario
     from testbed.scenario.loading import parse
 
     wall0 = time.perf_counter()

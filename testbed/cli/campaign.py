@@ -23,12 +23,12 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
 import sys
 from pathlib import Path
 
+from testbed.campaign.orchestration import load_cases  # noqa: F401  (where code has imported it from)
 from testbed.cli.commands import EXIT_FAILED, EXIT_OK, command, reported
-from testbed.errors import InputError, WriteFailed, quoted
+from testbed.errors import InputError, quoted
 from testbed.cli.json_stdout import reserved_for_json
 from testbed.cli.progress import advance_to, progress_bar
 
@@ -57,44 +57,6 @@ def add_parser(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def load_campaign(name: str, overrides: list[str]):
-    """(scenario name, raw data with the overrides applied, its source path, sweep spec)."""
-    from testbed.scenario.loading import apply_override, read_yaml, resolve_path
-    from testbed.campaign.spec import load_spec
-
-    path = resolve_path(name).resolve()  # its plug-in paths are relative to it, in any worker's cwd
-    data = read_yaml(path)
-    for assignment in overrides:
-        apply_override(data, assignment)
-    return str(data.get("name", path.stem)), data, str(path), load_spec(data.get("sweep"))
-
-
-def build_and_read_back(scenario, values: dict) -> dict:
-    """Build a case as its run will (testbed.runner.prepare) and check that every value set
-    reaches the built plant and stages (testbed.campaign.applied_values.NotApplied otherwise); returns what
-    its row will hold: the read-back values, the names of its metrics and of its checks; and how
-    long it may run (testbed.campaign.case_timeout)."""
-    from testbed.metrics import available
-    from testbed.campaign.case_timeout import case_timeout_s
-    from testbed.campaign.applied_values import applied_values, check_applied
-    from testbed.runner import prepare
-
-    plant, pipeline, _ = prepare(scenario)
-    applied = applied_values(values, scenario, plant, pipeline.stages())
-    check_applied(values, applied)
-    return {"applied": applied, "metrics": available(scenario), "timeout_s": case_timeout_s(scenario),
-            "checks": {name: {"max": limit.max, "min": limit.min} for name, limit in scenario.checks.items()}}
-
-
-def load_cases(name: str, overrides: list[str], indices=None):
-    """(scenario name, raw data, cases) of a sweep scenario, each case validated, built and read
-    back; InputError if anything is bad."""
-    from testbed.campaign.cases import expand
-
-    name, data, source, _ = load_campaign(name, overrides)
-    return name, data, expand(data, source, build_and_read_back, indices)
-
-
 def output_folder(args, name: str) -> Path:
     """The campaign's folder, absolute (resolved once here, so that a case whose stage changes its
     worker's cwd cannot send another case's files elsewhere; a symlink, dangling too, is
@@ -110,21 +72,11 @@ def output_folder(args, name: str) -> Path:
     return out
 
 
-def check_case_traces(out: Path, cases) -> None:
-    """Refuse (InputError naming --out) before anything runs a DIR/caseNNNN.rrd that is there but
-    is not a file (a directory): it would fail only when its case is written."""
-    from testbed.campaign.rows import case_trace
-    from testbed.recording.output_paths import output_path
-
-    for case in cases:
-        path = case_trace(out, case.index)
-        if os.path.lexists(path):  # a new file's folder is probed once, with the table's
-            output_path(path)
-
-
 def run(args) -> int:
     from testbed.campaign.case_timeout import checked_case_timeout
     from testbed.campaign.engine import Engine
+    from testbed.campaign.orchestration import (check_case_traces, load_plugins_in_workers, open_table, run_into,
+                                                summarise)
 
     case_timeout = checked_case_timeout(args.case_timeout) if args.case_timeout is not None else None
     engine = Engine(args.workers, args.scheduler)  # checks --workers; started below
@@ -134,17 +86,19 @@ def run(args) -> int:
     with reserved_for_json(args.json):
         name, data, cases = load_cases(args.scenario, args.set)
         out = output_folder(args, name)
-        table, done = open_table(out, name, data, cases, args)  # refuses a damaged folder; writes nothing
+        # refuses a damaged folder; writes nothing
+        table, done = open_table(out, name, data, cases, args.set, args.resume)
         if args.rrd:
             check_case_traces(out, cases)
         clamped = engine.at_most(len(cases))
         with engine:  # an unreachable scheduler is refused before any file is written
-            _load_plugins_in_workers(engine, cases)
+            load_plugins_in_workers(engine, cases)
             if clamped:  # after the start: a refused start is its one line
                 print(f"note: --workers {args.workers} for {len(cases)} cases: started {len(cases)}", file=sys.stderr)
             table.start()
-            rows = _run_into(table, done, cases, engine, out if args.rrd else None, args, case_timeout)
-        lines = summarise(name, data, rows, cases, out, args)
+            rows = run_into(table, done, cases, engine, out if args.rrd else None, case_timeout,
+                            _cases_bar(table.csv_path.stem, len(cases), args.json))
+        lines = summarise(name, data, rows, cases, out, args.scenario, args.set)
 
     def report():
         if args.json:
@@ -157,111 +111,20 @@ def run(args) -> int:
     return reported(EXIT_OK if all(r["passed"] for r in rows) else EXIT_FAILED, report)
 
 
-def _load_plugins_in_workers(engine, cases) -> None:
-    """Every plug-in the cases name, imported in every worker before any case runs (InputError
-    naming the plug-in and the worker if one cannot be)."""
-    for entries, source in {(tuple(case.data.get("plugins") or ()), case.source) for case in cases}:
-        if entries:
-            engine.load_plugins(list(entries), str(Path(source).parent))
-
-
-def summarise(name: str, data: dict, rows: list[dict], cases, out: Path, args) -> list[str]:
-    """Write DIR/summary/summary.json and summary.rrd of a finished campaign (testbed.campaign.stats,
-    testbed.campaign.plots); returns the lines for the terminal. Each value of a grid field or
-    a choice gets its own pass rate."""
-    from testbed.campaign.plots import write_summary_rrd
-    from testbed.campaign.stats import report, rerun_command, summary
-    from testbed.recording.atomic_file import write_atomically
-    from testbed.campaign.rows import flat
-    from testbed.campaign.spec import load_spec
-
-    spec = load_spec(data.get("sweep"))
-    choices = [key for key, dist in spec.drawn.items() if dist.kind == "choice"]
-    groups = [key for key in [*spec.grid, *choices] if key in rows[0]]  # a value's own column (not a vector)
-    metric_names = list(dict.fromkeys(m for case in cases for m in case.prepared["metrics"]))
-    parameters = list(dict.fromkeys(k for case in cases for k in [*flat(case.values), *case.derived]))
-    limits = {case.index: case.prepared["checks"] for case in cases}
-    grid = [key for key in spec.grid if key in rows[0]]
-    result = summary(name, rows, metric_names, limits, rerun_command(args.scenario, args.set, str(out)), groups, grid)
-    result["parameters"] = parameters
-    summary_json, summary_rrd = summary_files(out)
-    summary_json.parent.mkdir(exist_ok=True)  # apart from the cases' caseNNNN.rrd
-    write_atomically(summary_json, json.dumps(result, indent=1))
-    write_summary_rrd(summary_rrd, rows, metric_names, parameters, result)
-    return report(result)
-
-
-def summary_files(out: Path) -> tuple[Path, Path]:
-    """Where a finished campaign's statistics go: DIR/summary/summary.json and summary.rrd."""
-    return out / "summary" / "summary.json", out / "summary" / "summary.rrd"
-
-
-def open_table(out: Path, name: str, data: dict, cases, args):
-    """(the campaign's table in `out`, not started yet, the rows it holds by case): its columns
-    those the cases' rows will have; a fresh table, or with --resume the one this campaign left
-    there. Writes nothing; a folder the campaign could not finish in is refused (an output
-    path of the wrong kind, a damaged table: testbed.campaign.table)."""
-    from testbed.campaign.table import CampaignTable, fingerprint, merge_kinds
-    from testbed.accuracy.guard import CHECK_NAMES as GUARD_CHECKS
-    from testbed.campaign.rows import expected_row, identity_cells
-    from testbed.runner import STATUSES
-    from testbed.recording.output_paths import file_stem, output_path
-
-    for path in summary_files(out):
-        output_path(path)  # written only when every case has run
-
-    columns: dict = {}
-    for case in cases:
-        merge_kinds(columns, expected_row(case, case.prepared["applied"], case.prepared["metrics"],
-                                          [*case.prepared["checks"], *GUARD_CHECKS]))  # a guard's cell: FAIL or empty
-    identity = {"scenario": name, "set": list(args.set), "cases": len(cases), "fingerprint": fingerprint(data, cases)}
-    table = CampaignTable(out, file_stem(name), columns, identity, {"status": STATUSES},
-                          {case.index: identity_cells(case) for case in cases})
-    return table, table.read(args.resume)
-
-
-def _run_into(table, done: dict, cases, engine, rrd_dir: Path | None, args, case_timeout_s: float | None) -> list[dict]:
-    """Run the cases the table does not hold yet (`done`), each row into it as its case
-    finishes; on Ctrl-C (or any failure) the table is closed with every finished row, then the
-    stop goes on."""
-    from testbed.campaign.rows import run_cases
-
-    todo = [case for case in cases if case.index not in done]
-    failed_before = sum(not row["passed"] for row in done.values())
-    try:
-        with progress_bar(f"sweep {table.csv_path.stem}", len(cases), "cases") as bar:
-            bar.disable = bar.disable or args.json
-            advance_to(bar, len(done), failed=failed_before)
-            run_cases(todo, rrd_dir=rrd_dir, on_row=table.append, engine=engine, case_timeout_s=case_timeout_s,
-                      progress=lambda count, total, failed: advance_to(bar, len(done) + count, failed=failed_before + failed))
-        return table.close()
-    except WriteFailed as exc:  # a full disk: one line, the rows the CSV holds are kept for --resume
-        with contextlib.suppress(WriteFailed):
-            table.close()
-        raise WriteFailed(exc.path, f"{exc.reason}; {len(table.rows)} of {len(cases)} cases are kept in "
-                                    f"{table.csv_path}; --resume completes it once there is room") from None
-    except BaseException:
-        try:
-            rows = table.close()
-        except WriteFailed:  # the stop goes on; the CSV holds every row appended
-            rows = list(table.rows)
-        print(f"stopped: {len(rows)} of {len(cases)} cases finished, kept in {table.csv_path} and "
-              f"{table.parquet_path.name}; --resume runs the other {len(cases) - len(rows)}", file=sys.stderr)
-        raise
+@contextlib.contextmanager
+def _cases_bar(name: str, total: int, quiet: bool):
+    """The campaign's progress bar; its value advances it to (cases finished, of which failed)."""
+    with progress_bar(f"sweep {name}", total, "cases") as bar:
+        bar.disable = bar.disable or quiet
+        yield lambda count, failed: advance_to(bar, count, failed=failed)
 
 
 def _rerun_case(args) -> int:
     """`--case N`: case N alone, in this process, its trace written."""
-    from testbed.campaign.rows import case_trace, run_case
-    from testbed.recording.output_paths import output_path
+    from testbed.campaign.orchestration import rerun_case
 
     with reserved_for_json(args.json):  # a plug-in's prints go to stderr
-        name, _, _, spec = load_campaign(args.scenario, args.set)
-        if not 0 <= args.case < spec.count:
-            raise InputError("--case", f"must be a case number 0 ... {spec.count - 1}, got {args.case}")
-        _, _, (case,) = load_cases(args.scenario, args.set, [args.case])
-        rrd = output_path(case_trace(output_folder(args, name), case.index))
-        row = run_case(case, str(rrd), raises=(WriteFailed,))  # a full disk: one line, exit 1
+        name, case, rrd, row = rerun_case(args.scenario, args.set, args.case, lambda name: output_folder(args, name))
 
     def report():
         if args.json:

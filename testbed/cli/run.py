@@ -45,15 +45,15 @@ def add_check_parser(sub) -> None:
 
 def _run_one(name: str, overrides, out: str | None, show_progress: bool, view: bool = False, connect: str | None = None):
     from testbed import api
-    from testbed.runner import prepare
+    from testbed.run_core.plan import prepare
 
     with building_notice(str(name), show_progress):
         scenario = api.load(name, overrides)
         out_path = default_output(scenario.source, scenario.name, field="trace") if out is None else checked_output(out)
-        parts = prepare(scenario)
+        plan = prepare(scenario)
     # the viewer once the scenario and the output path are checked: a refused run opens none
     live = _live_view(view, connect) if view or connect is not None else None
-    result = _run_loaded(scenario, out_path, show_progress, live, prepared=parts)
+    result = _run_loaded(scenario, out_path, show_progress, live, prepared=plan)
     if live is not None and not live.complete:
         print(f"note: the viewer at {live.url} did not take the whole run within {live_view.CLOSE_S:g} s; "
               f"the trace file holds it", file=sys.stderr)
@@ -128,17 +128,17 @@ def run(args) -> int:
 
 def check(args) -> int:
     from testbed import api
-    from testbed.runner import prepare
+    from testbed.run_core.plan import prepare
     from testbed.scenario.shipped_files import SCENARIO_DIR
 
     names = args.scenarios or sorted(str(p) for p in SCENARIO_DIR.glob("*.yaml"))
     with reserved_for_json(args.json):  # a plug-in's prints go to stderr
         scenarios = [api.load(name) for name in names]  # every one valid before any runs
-        built = [prepare(scenario) for scenario in scenarios]
+        plans = [prepare(scenario) for scenario in scenarios]
         outs = [default_output(s.source, s.name, args.out_dir, "--out-dir") for s in scenarios]
         show = sys.stderr.isatty() and not args.json
-        results = [_run_loaded(scenario, out, show, prepared=parts)
-                   for scenario, out, parts in zip(scenarios, outs, built)]
+        results = [_run_loaded(scenario, out, show, prepared=plan)
+                   for scenario, out, plan in zip(scenarios, outs, plans)]
 
     def report():
         if args.json:

@@ -104,7 +104,7 @@ class CmgSlewEnv(SteppedEnv):
         if not 0 < momentum_fraction < 1:
             raise InputError("momentum_fraction", f"must be in (0, 1), got {momentum_fraction!r}")
         super().__init__(scenario, overrides, render_mode, rrd_path)
-        if "target_quat" not in getattr(self.sim.pipeline.law, "statistics", {}):
+        if "target_quat" not in self.sim.pipeline.statistics().get("law", {}):
             raise InputError("pipeline.law.type", "CmgSlew needs a law that declares its target (e.g. slew), "
                                                   f"not {self.sim.scenario.stages['law'][0]}")
         self.action = action

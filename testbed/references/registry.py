@@ -11,6 +11,7 @@ stages' validated parameters (design data, like the plant's) to build the same l
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Callable
 
@@ -32,6 +33,29 @@ class ReferenceKind:
 
 
 REFERENCES = Registry("reference")
+
+
+@dataclass(frozen=True)
+class DeclaredReference:
+    """What a prepared reference may declare besides `evaluate(times, recorder)`, each with the
+    default it otherwise has; `DeclaredReference.of` is the one place that reads them.
+
+    update, finish: a streaming reference's `update(chunk) -> Chunk | None` of the rows of each
+    chunk of the run, and `finish() -> Chunk | None` of the last ones (then it is not called
+    whole, testbed.recording.reference_windows); signals: the recorded keys a reference evaluated
+    on the whole run reads besides `truth/omega` (None: it may read every signal)."""
+
+    update: Callable | None = None
+    finish: Callable | None = None
+    signals: tuple | None = None
+
+    @classmethod
+    def of(cls, reference) -> "DeclaredReference":
+        return cls(**{f.name: getattr(reference, f.name, f.default) for f in dataclasses.fields(cls)})
+
+    @property
+    def streaming(self) -> bool:
+        return self.update is not None
 
 
 def reference(name: str, systems: tuple[str, ...], params: type = _NoParams, with_scenario: bool = False):

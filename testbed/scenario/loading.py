@@ -43,6 +43,7 @@ from testbed.campaign.spec import load_spec
 from testbed.environment.config import ENVIRONMENT_SIGNALS, EnvironmentParams
 from testbed.orbit.config import ORBIT_SIGNALS, OrbitParams
 from testbed.accuracy.settings import AccuracySettings
+from testbed.run_core.timing import Timing
 
 
 
@@ -71,15 +72,16 @@ class SimConfig:
             self.estimator_period_s = self.control_period_s
         if self.trace_period_s is None:
             self.trace_period_s = self.control_period_s
-        steps = schema.whole_multiple(self.control_period_s, self.dt_s, schema.join(path, "control_period_s"), "dt_s")
-        self.steps_per_sample = schema.whole_multiple(self.estimator_period_s, self.dt_s,
-                                                      schema.join(path, "estimator_period_s"), "dt_s")
-        self.samples_per_tick = schema.whole_multiple(self.control_period_s, self.estimator_period_s,
-                                                      schema.join(path, "control_period_s"), "estimator_period_s")
+        # the whole counts between the periods are the run's (testbed.run_core.timing.Timing): checked here
+        schema.whole_multiple(self.control_period_s, self.dt_s, schema.join(path, "control_period_s"), "dt_s")
+        schema.whole_multiple(self.estimator_period_s, self.dt_s, schema.join(path, "estimator_period_s"), "dt_s")
+        samples_per_tick = schema.whole_multiple(self.control_period_s, self.estimator_period_s,
+                                                 schema.join(path, "control_period_s"), "estimator_period_s")
         schema.whole_multiple(self.trace_period_s, self.estimator_period_s, schema.join(path, "trace_period_s"),
-                              "control_period_s" if self.samples_per_tick == 1 else "estimator_period_s")
-        self.envelope_rows = 1 if self.trace_envelope_s is None else schema.whole_multiple(
-            self.trace_envelope_s, self.trace_period_s, schema.join(path, "trace_envelope_s"), "trace_period_s")
+                              "control_period_s" if samples_per_tick == 1 else "estimator_period_s")
+        if self.trace_envelope_s is not None:
+            schema.whole_multiple(self.trace_envelope_s, self.trace_period_s, schema.join(path, "trace_envelope_s"),
+                                  "trace_period_s")
         steps_total = self.duration_s / self.dt_s
         if steps_total > MAX_PHYSICS_STEPS:
             raise InputError(schema.join(path, "duration_s"), f"{self.duration_s:g} s at dt_s = {self.dt_s:g} s is "
@@ -91,16 +93,12 @@ class SimConfig:
                              f"at most {MAX_TRACE_SAMPLES:.0e}: raise trace_period_s to at least "
                              f"{self.duration_s / MAX_TRACE_SAMPLES:.3g} s")
         schema.whole_multiple(self.duration_s, self.control_period_s, schema.join(path, "duration_s"), "control_period_s")
-        self.steps_per_tick = steps
 
     @property
     def end_time_s(self) -> float:
-        """Time of the run's last trace sample, the final state [s]: n Tc after n = duration / Tc
-        control ticks (n k Ts with k estimator samples a tick), as the run loop records it."""
-        n_ticks = round(self.duration_s / self.control_period_s)
-        if self.samples_per_tick == 1:
-            return n_ticks * self.control_period_s
-        return n_ticks * self.samples_per_tick * self.estimator_period_s
+        """Time of the run's last trace sample, the final state [s], as the run loop records it
+        (testbed.run_core.timing.Timing.end_time_s)."""
+        return Timing.of(self).end_time_s
 
 
 @dataclass

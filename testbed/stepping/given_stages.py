@@ -1,15 +1,16 @@
 """Python objects in the pipeline's slots: a stage the caller built (or a function), and one
 step's command given outright, held to the output checks a plug-in stage is held to
-(testbed.pipeline.OutputCheck). docs/stepping.md "Python objects as stages"."""
+(testbed.run_core.output_check.OutputCheck). docs/stepping.md "Python objects as stages"."""
 
 from __future__ import annotations
 
 import inspect
 
 from testbed.errors import InputError
-from testbed.pipeline import INTERFACE_SHAPES, SLOTS, OutputCheck
+from testbed.run_core.output_check import INTERFACE_SHAPES, OutputCheck
+from testbed.run_core.stage_contract import SLOTS, Declared
 
-# the method each slot's Protocol calls (testbed.pipeline: Sensor, Estimator, Law, Allocator)
+# the method each slot's Protocol calls (testbed.run_core.stage_contract: Sensor, Estimator, Law, Allocator)
 SLOT_METHODS = {"sensor": "measure", "estimator": "estimate", "law": "torque", "allocator": "allocate"}
 
 
@@ -70,13 +71,13 @@ def given_stage(slot: str, stage_object, actuators: dict, configured_output: str
         stage = FunctionStage(slot, stage_object, configured_output if slot == "allocator" else None)
     else:
         raise InputError(where, f"{type(stage_object).__name__} has no {method} method and is not a function")
-    return stage, output_check(slot, type_of_given(stage), actuators, getattr(stage, "output", None),
-                               getattr(stage, "outputs", ()), where)
+    declared = Declared.of(stage)
+    return stage, output_check(slot, type_of_given(stage), actuators, declared.output, declared.outputs or (), where)
 
 
 def output_check(slot: str, name: str, actuators: dict, output: str | None = None, required=(),
                  where: str = "stages") -> OutputCheck:
-    """The check a plug-in stage of `slot` gets (testbed.pipeline.Pipeline.from_config): the
+    """The check a plug-in stage of `slot` gets (testbed.run_core.tick.Pipeline.from_config): the
     `required` keys, the slot's interface shapes and, for an allocator, its command key `output`
     with the shape the plant's `actuators` take."""
     shapes = dict(INTERFACE_SHAPES.get(slot, {}))
@@ -92,4 +93,4 @@ def output_check(slot: str, name: str, actuators: dict, output: str | None = Non
 
 def type_of_given(stage_object) -> str:
     """What the run summary calls a Python object's stage: its `type_name`, else its class's name."""
-    return str(getattr(stage_object, "type_name", None) or type(stage_object).__qualname__)
+    return str(Declared.of(stage_object).type_name or type(stage_object).__qualname__)

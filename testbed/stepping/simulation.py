@@ -1,7 +1,8 @@
 """A run driven a control period at a time: `Simulation(scenario)`, `reset(seed)`, `step()`,
 the truth and the stages' outputs read between steps, `close()` for the result.
 
-It steps the runner's own loop (testbed.runner.RunInProgress), so a run stepped to its end
+It starts from the run's plan (testbed.run_core.plan) and steps the run's own loop
+(testbed.run_core.in_progress.RunInProgress), so a run stepped to its end
 with the built-in stages is the run `testbed.run` makes, bit for bit. docs/stepping.md.
 """
 
@@ -9,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import time
 from pathlib import Path
 
 import numpy as np
@@ -16,9 +18,11 @@ import numpy as np
 from testbed.campaign.cases import seeded_scenario
 from testbed.errors import InputError
 from testbed.exit_guard import os_exit_raises
-from testbed.pipeline import SLOTS, StageFailed
 from testbed.recording.output_paths import CheckedPath, output_path
-from testbed.runner import RunInProgress, RunResult, one_blas_thread
+from testbed.run_core.in_progress import RunInProgress, one_blas_thread
+from testbed.run_core.plan import prepare
+from testbed.run_core.result import RunResult
+from testbed.run_core.stage_contract import SLOTS, StageFailed
 from testbed.scenario.loading import Scenario, load_mapping, parse
 from testbed.scenario.yaml_reading import as_loaded
 from testbed.stepping.given_stages import SLOT_METHODS, GivenOutput, output_check
@@ -41,7 +45,7 @@ class Simulation:
 
     While a Simulation is open, in the thread that opened it, os._exit raises (as in any run:
     testbed.exit_guard, so that a stage calling it fails the run) and the process's BLAS runs
-    on one thread (testbed.runner.one_blas_thread); `close()` (or the `with` block's end)
+    on one thread (testbed.run_core.in_progress.one_blas_thread); `close()` (or the `with` block's end)
     restores both. Step it from the thread that made it."""
 
     def __init__(self, scenario: Scenario | str | Path | dict, overrides: list[str] = (), *,
@@ -68,7 +72,7 @@ class Simulation:
         self._stages, self._keep_trace = stages, keep_trace
         self._run: RunInProgress | None = None
         self._closed = False  # the episode's result is made: it is read, no longer stepped
-        self._guards = None  # one BLAS thread and os._exit raising, while open (testbed.runner.run_scenario's)
+        self._guards = None  # one BLAS thread and os._exit raising, while open (as in_progress.run_scenario)
         self.result: RunResult | None = None  # the last episode's, once it is closed
         try:
             self.reset(seed)
@@ -96,7 +100,8 @@ class Simulation:
             self._guards = contextlib.ExitStack()
             self._guards.enter_context(one_blas_thread())
             self._guards.enter_context(os_exit_raises())
-        self._run = RunInProgress(scenario, self._out, self._keep_trace, stages=self._stages)
+        wall0 = time.perf_counter()
+        self._run = RunInProgress(prepare(scenario, self._stages), self._out, self._keep_trace, wall0=wall0)
         self._closed, self.result = False, None
 
     def step(self, command: dict | None = None) -> dict:
@@ -113,14 +118,15 @@ class Simulation:
             return self.outputs
         given = self._given(command)
         pipeline = run.pipeline
-        saved = {slot: (getattr(pipeline, slot), pipeline.checks.get(slot)) for slot in given}
+        stages = pipeline.stages()
+        saved = {slot: (stages[slot], pipeline.checks.get(slot), pipeline.declared[slot]) for slot in given}
         for slot, stage in given.items():
             pipeline.set_stage(slot, stage, None)
         try:
             run.advance(1)
         finally:
-            for slot, (stage, check) in saved.items():
-                pipeline.set_stage(slot, stage, check)
+            for slot, (stage, check, declared) in saved.items():
+                pipeline.set_stage(slot, stage, check, declared)
         return self.outputs
 
     def close(self) -> RunResult | None:
