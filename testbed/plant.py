@@ -215,11 +215,6 @@ class Plant:
         torques): then neither momentum nor energy is conserved (the accuracy guard reads it). A system adds its own."""
         return self.torqued or (self.surroundings is not None and self.surroundings.params is not None)
 
-    def step_rates(self) -> dict[str, float]:
-        """Rates [rad/s] whose angle a physics step must resolve, known before the run, by what
-        they are (the accuracy guard's step-size check, testbed.accuracy.step_size); none here."""
-        return {}
-
     def tracking_monitor(self, command_key: str | None):
         """(running reduction, figure(state), what it measures) of how far the actuators missed
         the command `command_key` (the accuracy guard's tracking monitor), or None: none here."""
