@@ -6,7 +6,8 @@ Keys (recorded as `sensor/<key>`): `tracker_quat` (w, x, y, z) the last attitude
 call that brought a new sample, `tracker_available` 0 inside an outage or an exclusion, and
 with an exclusion angle `tracker_excluded`, what blinds it (bits: 1 the Sun, 2 the Earth,
 4 the Moon: exclusion.py); `gyro_rate` [rad/s] the last mean rate, `gyro_stamp` [s] the end of
-its interval, and `gyro_bias` [rad/s] the package's true bias there (for the trace and the bias metrics; no estimator reads it).
+its interval, and `gyro_bias` [rad/s] the package's true bias there (for the trace and the
+bias metrics; no estimator reads it).
 """
 
 from __future__ import annotations
