@@ -78,14 +78,14 @@ class StarTrackerGyro:
         self.tracker = StarTracker(params.star_tracker, self.delay)
         tracker = params.star_tracker
         self.exclusion = None
-        angles = {"sun_exclusion_deg": tracker.sun_exclusion_deg, "earth_exclusion_deg": tracker.earth_exclusion_deg,
-                  "moon_exclusion_deg": tracker.moon_exclusion_deg}
-        given = [field for field, angle in angles.items() if angle is not None]
+        given = [field for field in ("sun_exclusion_deg", "earth_exclusion_deg", "moon_exclusion_deg")
+                 if getattr(tracker, field) is not None]
         if given:
             if ctx.orbit is None:
                 raise InputError(f"pipeline.sensor.star_tracker.{given[0]}", "an exclusion needs the orbit's "
                                  "geometry: add an orbit: block")
-            self.exclusion = Exclusion(self.tracker.frame[:, 2], *angles.values(), ctx.orbit,
+            self.exclusion = Exclusion(self.tracker.frame[:, 2], tracker.sun_exclusion_deg,
+                                       tracker.earth_exclusion_deg, tracker.moon_exclusion_deg, ctx.orbit,
                                        sensor_period(ctx), ctx.end_time)
         self.gyro = GyroPackage(params.gyro, self.gyro_every * self.called)
         self.seeds = {"star_tracker": params.star_tracker.seed, "gyro": params.gyro.seed}
