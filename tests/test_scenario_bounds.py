@@ -161,6 +161,7 @@ PINNED = {
         "peak_dipole_use": {"max": 1.0},
     },
     "orbit_node_rate": {"node_rate_error_rel": {"max": 1.5e-3}},
+    "orbit_tle_nadir": {"sgp4_position_error_m": {"max": 2.0}, "max_true_pointing_error_deg": {"max": 0.01}},
     "orbit_momentum_campaign": {
         "peak_envelope_share": {"max": 0.8},
         "peak_dipole_use": {"max": 1.0},

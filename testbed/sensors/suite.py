@@ -6,7 +6,8 @@ Keys (recorded as `sensor/<key>`): `tracker_quat` (w, x, y, z) the last attitude
 call that brought a new sample, `tracker_available` 0 inside an outage or an exclusion, and
 with an exclusion angle `tracker_excluded`, what blinds it (bits: 1 the Sun, 2 the Earth,
 4 the Moon: exclusion.py); `gyro_rate` [rad/s] the last mean rate, `gyro_stamp` [s] the end of
-its interval, and `gyro_bias` [rad/s] the package's true bias there (for the trace and the bias metrics; no estimator reads it).
+its interval, and `gyro_bias` [rad/s] the package's true bias there (for the trace and the
+bias metrics; no estimator reads it).
 """
 
 from __future__ import annotations
@@ -77,14 +78,14 @@ class StarTrackerGyro:
         self.tracker = StarTracker(params.star_tracker, self.delay)
         tracker = params.star_tracker
         self.exclusion = None
-        angles = {"sun_exclusion_deg": tracker.sun_exclusion_deg, "earth_exclusion_deg": tracker.earth_exclusion_deg,
-                  "moon_exclusion_deg": tracker.moon_exclusion_deg}
-        given = [field for field, angle in angles.items() if angle is not None]
+        given = [field for field in ("sun_exclusion_deg", "earth_exclusion_deg", "moon_exclusion_deg")
+                 if getattr(tracker, field) is not None]
         if given:
             if ctx.orbit is None:
                 raise InputError(f"pipeline.sensor.star_tracker.{given[0]}", "an exclusion needs the orbit's "
                                  "geometry: add an orbit: block")
-            self.exclusion = Exclusion(self.tracker.frame[:, 2], *angles.values(), ctx.orbit,
+            self.exclusion = Exclusion(self.tracker.frame[:, 2], tracker.sun_exclusion_deg,
+                                       tracker.earth_exclusion_deg, tracker.moon_exclusion_deg, ctx.orbit,
                                        sensor_period(ctx), ctx.end_time)
         self.gyro = GyroPackage(params.gyro, self.gyro_every * self.called)
         self.seeds = {"star_tracker": params.star_tracker.seed, "gyro": params.gyro.seed}
