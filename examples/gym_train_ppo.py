@@ -1,18 +1,22 @@
 """Train a small PPO agent on CmgSlewShort-v0 and report its learning curve and success rate.
 
     pip install 'gyrodyne-testbed[rl]'          # stable-baselines3 and torch (CPU), pinned
-    nice python examples/gym_train_ppo.py       # about 10 min of CPU (docs/validation.md "Measured times")
+    nice python examples/gym_train_ppo.py       # its CPU time: docs/validation.md "Measured times"
 
-The agent (stable-baselines3's PPO, a 64-64 MLP, one CPU thread) learns the slew of
-`testbed/CmgSlewShort-v0` (slews of 10-30 deg, tolerances 1 deg and 0.1 deg/s). The returns are
-normalised for the learner (`VecNormalize`: the success bonus is hundreds of times a period's
-cost); the observation is already scaled by the environment. Written:
+The agent (stable-baselines3's PPO, one CPU thread) learns the slew of `testbed/CmgSlewShort-v0`
+(slews of 10-30 deg, tolerances 1 deg and 0.1 deg/s): a linear policy (the unit PD is one) and
+a 64-64 value function. The learner's reward is the environment's plus potential-based shaping
+(`PotentialShaping`, which leaves the optimal policies unchanged), normalised (`VecNormalize`:
+the success bonus is a hundred times a period's cost); the observation is already scaled by
+the environment. `--algorithm sac|td3` tries stable-baselines3's off-policy learners instead.
+Written:
 
 - `docs/images/ppo_learning_curve.csv`: per block of training steps, the episodes that ended in
-  it, the share that succeeded (the stochastic policy, as it trained) and their mean return;
+  it, the share that succeeded (the stochastic policy, as it trained) and their mean return
+  (the environment's own, without the shaping);
 - `docs/images/ppo_learning_curve.svg`: the success share against the training steps;
-- printed: the trained policy's success rate, acting deterministically, on the fixed evaluation
-  seeds, beside the plain unit-gain PD's on the same seeds.
+- printed: each training episode as it ends; the trained policy's success rate, acting
+  deterministically, on the fixed evaluation seeds, beside the unit-gain PD's on the same seeds.
 """
 
 from __future__ import annotations
@@ -30,10 +34,38 @@ import testbed.gym  # noqa: F401  (registers testbed/CmgSlewShort-v0)
 ENV_ID = "testbed/CmgSlewShort-v0"
 DOCS_IMAGES = Path(__file__).resolve().parents[1] / "docs" / "images"
 EVALUATION_SEEDS = range(1000, 1020)   # never used in training (training draws from seed 0's stream)
+GAMMA = 0.99
 BLOCK_STEPS = 1000                     # the learning curve's resolution
 
 
-def train(steps: int, algorithm: str = "ppo", seed: int = 0):
+class PotentialShaping(gymnasium.Wrapper):
+    """The environment's reward plus gamma phi(s') - phi(s), phi = -(|e| / e_s + |omega| / omega_s):
+    potential-based shaping (Ng, Harada and Russell 1999) leaves the optimal policies as they
+    are, and gives the learner a slope toward the target before it has ever reached it."""
+
+    def __init__(self, env, gamma: float):
+        super().__init__(env)
+        self.gamma = gamma
+
+    def _phi(self, observation) -> float:
+        scales = self.env.unwrapped.scales
+        error = float(np.linalg.norm(observation[-3:])) * np.pi
+        return -(error / scales.error + float(np.linalg.norm(observation[3:6])))
+
+    def reset(self, **kwargs):
+        observation, info = self.env.reset(**kwargs)
+        self.phi = self._phi(observation)
+        return observation, info
+
+    def step(self, action):
+        observation, reward, terminated, truncated, info = self.env.step(action)
+        phi = 0.0 if terminated else self._phi(observation)  # an end state has no future
+        reward += self.gamma * phi - self.phi
+        self.phi = phi
+        return observation, reward, terminated, truncated, info
+
+
+def train(steps: int, algorithm: str = "ppo", seed: int = 0, shaping: bool = False):
     """(model, episodes): the agent trained for `steps` environment steps; episodes: (steps at
     its end, success, return) of each training episode, in order."""
     import torch
@@ -55,18 +87,22 @@ def train(steps: int, algorithm: str = "ppo", seed: int = 0):
                           flush=True)
             return True
 
-    envs = DummyVecEnv([lambda: Monitor(gymnasium.make(ENV_ID), info_keywords=("is_success",))])
+    def make():
+        env = Monitor(gymnasium.make(ENV_ID), info_keywords=("is_success",))  # the environment's own return
+        return PotentialShaping(env, GAMMA) if shaping else env
+
+    envs = DummyVecEnv([make])
     envs.seed(seed)
-    envs = VecNormalize(envs, norm_obs=False, norm_reward=True, gamma=0.99)
+    envs = VecNormalize(envs, norm_obs=False, norm_reward=True, gamma=GAMMA)
     if algorithm == "ppo":
         # a linear policy (the unit PD is one) and a 64-64 value function
-        model = PPO("MlpPolicy", envs, n_steps=512, batch_size=64, n_epochs=10, gamma=0.99, gae_lambda=0.95,
+        model = PPO("MlpPolicy", envs, n_steps=512, batch_size=64, n_epochs=10, gamma=GAMMA, gae_lambda=0.95,
                     learning_rate=1e-3, policy_kwargs={"net_arch": {"pi": [], "vf": [64, 64]}, "log_std_init": -1.0},
                     seed=seed, device="cpu", verbose=0)
     else:
         learner = SAC if algorithm == "sac" else TD3
         extra = {"ent_coef": "auto_0.1"} if algorithm == "sac" else {}
-        model = learner("MlpPolicy", envs, learning_starts=1000, batch_size=128, buffer_size=steps, gamma=0.99,
+        model = learner("MlpPolicy", envs, learning_starts=1000, batch_size=128, buffer_size=steps, gamma=GAMMA,
                         learning_rate=1e-3, policy_kwargs={"net_arch": [64, 64]}, seed=seed, device="cpu", verbose=0,
                         **extra)
     model.learn(total_timesteps=steps, callback=Episodes())
@@ -133,11 +169,13 @@ def curve_svg(rows: list[dict], steps: int, final: float) -> str:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=100_000, help="training steps (control periods)")
+    parser.add_argument("--steps", type=int, default=50_000, help="training steps (control periods)")
     parser.add_argument("--algorithm", choices=("ppo", "sac", "td3"), default="ppo")
+    parser.add_argument("--no-shaping", dest="shaping", action="store_false",
+                        help="train on the environment's reward alone (without PotentialShaping)")
     parser.add_argument("--out", type=Path, default=DOCS_IMAGES, help="where the CSV and the SVG go")
     args = parser.parse_args(argv)
-    model, episodes = train(args.steps, args.algorithm)
+    model, episodes = train(args.steps, args.algorithm, shaping=args.shaping)
     trained = success_rate(lambda o: model.predict(o, deterministic=True)[0])
     plain_pd = success_rate(lambda o: np.clip(o[0:3] - o[3:6], -1.0, 1.0))
     rows = learning_curve(episodes, args.steps)
