@@ -26,7 +26,7 @@ from testbed.math.quaternion import quat_conj, quat_from_axis_angle, quat_mul
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 SHORT = {"testbed/CmgSlew-v0": ["sim.duration_s=2"], "testbed/CmgSlewGimbalRates-v0": ["sim.duration_s=2"],
-         "testbed/CmgSlewShort-v0": ["sim.duration_s=2", "sim.control_period_s=0.2", "sim.trace_period_s=0.2"],
+         "testbed/CmgSlewShort-v0": ["sim.duration_s=2", "sim.control_period_s=0.5", "sim.trace_period_s=0.5"],
          "testbed/CmgSpinUp-v0": ["sim.duration_s=2"]}
 
 
@@ -218,30 +218,48 @@ def test_a_success_returns_more_than_any_episode_that_does_not_succeed():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("overrides, seeds", [
-    (("sim.duration_s=300",), range(6)),  # the default task: reorient_campaign's 30-150 deg slews
+@pytest.mark.parametrize("env_id, overrides, seeds", [
+    ("testbed/CmgSlew-v0", {}, range(6)),  # the default task: reorient_campaign's 30-150 deg slews
     # not a shipped case: pseudo-inverse steering, another inertia and rotor momentum
-    (("sim.duration_s=400", "pipeline.allocator.type=pinv", "model.inertia_kg_m2=[600, 1500, 2000]",
-      "model.rotor_momentum_nms=12"), range(3)),
+    ("testbed/CmgSlew-v0", {"overrides": ("sim.duration_s=400", "pipeline.allocator.type=pinv",
+                                          "model.inertia_kg_m2=[600, 1500, 2000]", "model.rotor_momentum_nms=12")},
+     range(3)),
+    ("testbed/CmgSlewShort-v0", {}, range(6)),  # the learning variant's 10-30 deg slews, 0.5 s period
 ])
-def test_a_plain_pd_with_unit_gains_flies_every_slew(overrides, seeds):
+def test_a_plain_pd_with_unit_gains_flies_every_slew(env_id, overrides, seeds):
     """Issue 39: with the actions scaled to n h rate_max and the error to pi, hand-tuned PDs
     succeeded on 3 of 6 seeds. In the scaled units a = o_e - o_w is a rate-limited eigenaxis
     slew (docs/stepping.md "Scaling"): it succeeds on every seed (6 of 6, and 3 of 3 off the
-    shipped case), and cruises at omega_s, the rate at which a = 0 with |o_e| = 1 (the peak
-    body rate within 2 % of it: the approach to the cruise is overdamped, slightly under it
-    while the error's direction still turns)."""
-    env = gymnasium.make("testbed/CmgSlew-v0", overrides=overrides)
+    shipped case, 6 of 6 on CmgSlewShort-v0), and a slew beyond 2 e_s cruises at omega_s, the
+    rate at which a = 0 with |o_e| = 1 (the peak body rate within 2 % of it: the approach to
+    the cruise is overdamped, slightly under it while the error's direction still turns)."""
+    env = gymnasium.make(env_id, **overrides)
     slew = env.unwrapped
     pd = example("gym_slew_classical").PlainPD()
     for seed in seeds:
         observation, _ = env.reset(seed=seed)
-        peak = 0.0
+        angle, peak = float(np.linalg.norm(observation[-3:])) * math.pi, 0.0
         while True:
             observation, _, terminated, truncated, info = env.step(pd(observation))
             peak = max(peak, float(np.linalg.norm(slew.sim.plant.omega())))
             if terminated or truncated:
                 break
         assert info["is_success"], (seed, info)
-        assert peak / slew.scales.rate == pytest.approx(1.0, abs=0.02), seed
+        if angle > 2 * slew.scales.error:  # far enough to reach the cruise
+            assert peak / slew.scales.rate == pytest.approx(1.0, abs=0.02), seed
     env.close()
+
+
+def test_the_ppo_example_builds_its_curve_from_episodes_when_the_extra_is_installed():
+    """The training itself takes minutes (docs/validation.md "Measured times"): here only that
+    the example imports with the extra `rl` and that its learning curve counts the episodes
+    it is given, block by block (an SVG that names the evaluated rate)."""
+    pytest.importorskip("stable_baselines3")
+    ppo = example("gym_train_ppo")
+    episodes = [(400, False, -3.0), (900, True, 380.0), (1200, True, 400.0), (2500, False, -2.0)]
+    rows = ppo.learning_curve(episodes, steps=3000, block=1000)
+    assert rows == [{"steps": 1000, "episodes": 2, "success_rate": 0.5, "mean_return": 188.5},
+                    {"steps": 2000, "episodes": 1, "success_rate": 1.0, "mean_return": 400.0},
+                    {"steps": 3000, "episodes": 1, "success_rate": 0.0, "mean_return": -2.0}]
+    svg = ppo.curve_svg(rows, 3000, 0.85)
+    assert svg.startswith("<svg") and "85% of 20 fixed seeds" in svg

@@ -7,7 +7,7 @@ Importing it registers, under Gymnasium's namespace `testbed`:
   wanted (the scenario's own steering turns it into gimbal rates);
 - `testbed/CmgSlewGimbalRates-v0`: the same slew, the action the gimbal rates themselves;
 - `testbed/CmgSlewShort-v0`: CmgSlew-v0 cut down to be learnt in minutes (slews of 10-30 deg,
-  a control period of 0.2 s, tolerances 1 deg and 0.1 deg/s; about 300 periods an episode);
+  a control period of 0.5 s, tolerances 1 deg and 0.1 deg/s; 105-140 periods an episode);
 - `testbed/CmgSpinUp-v0`: the one-gyro spin-up, the observation what the single rate gyro gives.
 
     import gymnasium, testbed.gym
@@ -23,11 +23,11 @@ except ImportError as exc:  # pragma: no cover - the extra is installed where th
     raise ImportError("testbed.gym needs Gymnasium: pip install 'gyrodyne-testbed[gym]'") from exc
 
 # CmgSlewShort-v0 (docs/stepping.md "CmgSlewShort-v0"): reorient_campaign's bus and steering,
-# slews of 10-30 deg about a random axis, a control period of 0.2 s, the time limit's settling
-# allowance 6 / omega_n (the unit PD's error falls to 2 % of e_s), tolerances a learner can hold
-# with its exploration noise on.
+# slews of 10-30 deg about a random axis, a control period of 0.5 s (omega_n T = 0.07), the time
+# limit's settling allowance 6 / omega_n (the unit PD's error falls to 2 % of e_s), tolerances of
+# 1 deg and 0.1 deg/s.
 SHORT_SLEW = {
-    "overrides": ("sim.duration_s=120", "sim.control_period_s=0.2", "sim.trace_period_s=0.2",
+    "overrides": ("sim.duration_s=120", "sim.control_period_s=0.5", "sim.trace_period_s=0.5",
                   'sweep.dispersions={"pipeline.law.angle_deg": {"uniform": [10, 30]}, '
                   '"pipeline.law.axis": {"uniform_direction": true}}'),
     "tolerance_deg": 1.0, "rate_tolerance_deg_s": 0.1, "settling_times": 6.0,

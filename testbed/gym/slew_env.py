@@ -80,7 +80,7 @@ class CmgSlewEnv(SteppedEnv):
     a * rate_max [rad/s] straight to the gimbal servos.
     observation (12 + 2n,): the attitude error and body rate in the scales (`attitude_observation`;
     the rate within +-max_rate / omega_s), sin and cos of the n gimbal angles, the cluster's
-    momentum / (n h) and the attitude error / pi (body axes), each in [-1, 1].
+    momentum / (n h) and the attitude error / pi (body axes), these in [-1, 1].
     reward per control period: -(|e|/pi)^2 - 0.1 |omega / max_rate|^2 - 0.01 |a|^2 / dim(a).
     terminated: done when |e| <= tolerance_deg and |omega| <= rate_tolerance_deg_s; failed when
     a body rate component passes max_rate_deg_s, the run diverges or, with singular_measure_min

@@ -26,14 +26,14 @@ class SteppedEnv(gymnasium.Env):
     `sweep.dispersions`: e.g. reorient_campaign's slew axis and angle): the same seed, the
     same episode bit for bit. step(action): one control period. The episode is truncated at
     its time limit (`time_limit_ticks`: the scenario's duration unless the subclass sets a
-    shorter one for the episode drawn), and terminated when the task is done or has failed (the run
-    diverged, a stage failed, or the subclass's own bounds); a failure costs
+    shorter one for the episode drawn), and terminated when the task is done or has failed
+    (the run diverged, a stage failed, or the subclass's own bounds); a failure costs
     `failure_cost_per_period` times the periods left, and a success earns `success_bonus()`:
-    `failure_cost_per_period` (the most a period can cost) times the episode's periods (its time
-    limit), so that
-    every episode that succeeds returns at least 0 and more than every episode that does not
-    (whose costs sum to at most 0), and, of two successes, the sooner returns more when their
-    periods cost alike (docs/stepping.md "Reward"). render_mode "rrd": each episode's trace
+    `failure_cost_per_period` (the most a period can cost) times the episode's periods (its
+    time limit), so that every episode that succeeds returns at least 0 and more than every
+    episode that does not (whose costs sum to at most 0), and, of two successes, the sooner
+    returns more when their periods cost alike (docs/stepping.md "Reward"). render_mode
+    "rrd": each episode's trace
     is written to `rrd_path` (default `runs/<scenario>.episode.rrd`), whole once the episode
     ends (at the next reset or at close)."""
 
