@@ -169,7 +169,7 @@ def curve_svg(rows: list[dict], steps: int, final: float) -> str:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=50_000, help="training steps (control periods)")
+    parser.add_argument("--steps", type=int, default=80_000, help="training steps (control periods)")
     parser.add_argument("--algorithm", choices=("ppo", "sac", "td3"), default="ppo")
     parser.add_argument("--no-shaping", dest="shaping", action="store_false",
                         help="train on the environment's reward alone (without PotentialShaping)")
