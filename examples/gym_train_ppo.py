@@ -149,7 +149,7 @@ def curve_svg(rows: list[dict], steps: int, final: float) -> str:
 
     points = " ".join(f"{x(r['steps']):.1f},{y(r['success_rate']):.1f}" for r in rows)
     ticks = "".join(f'<line x1="{left}" x2="{left + plot_w}" y1="{y(v):.1f}" y2="{y(v):.1f}" stroke="#ddd"/>'
-                    f'<text x="{left - 8}" y="{y(v) + 4:.1f}" text-anchor="end">{v:.1f}</text>'
+                    f'<text x="{left - 8}" y="{y(v) + 4:.1f}" text-anchor="end">{v:.2f}</text>'
                     for v in (0.0, 0.25, 0.5, 0.75, 1.0))
     xticks = "".join(f'<text x="{x(s):.1f}" y="{top + plot_h + 18}" text-anchor="middle">{s // 1000}k</text>'
                      for s in range(0, steps + 1, max(steps // 5, 1)))
@@ -161,7 +161,7 @@ def curve_svg(rows: list[dict], steps: int, final: float) -> str:
             f'stroke="#d62728" stroke-dasharray="6 4"/>'
             f'<text x="{left + plot_w}" y="{y(final) - 6:.1f}" text-anchor="end" fill="#d62728">'
             f'trained policy, deterministic: {final:.0%} of {len(EVALUATION_SEEDS)} fixed seeds</text>'
-            f'<text x="{left + plot_w / 2}" y="{height - 10}" text-anchor="middle">training steps (control periods of 0.2 s)</text>'
+            f'<text x="{left + plot_w / 2}" y="{height - 10}" text-anchor="middle">training steps (control periods, 0.5 s each)</text>'
             f'<text x="16" y="{top + plot_h / 2}" text-anchor="middle" transform="rotate(-90 16 {top + plot_h / 2})">'
             f'share of training episodes that succeed [-]</text>'
             f'<text x="{left}" y="18">PPO on {ENV_ID}: success while training (per {BLOCK_STEPS} steps)</text></svg>\n')
@@ -169,7 +169,7 @@ def curve_svg(rows: list[dict], steps: int, final: float) -> str:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=50_000, help="training steps (control periods)")
+    parser.add_argument("--steps", type=int, default=80_000, help="training steps (control periods)")
     parser.add_argument("--algorithm", choices=("ppo", "sac", "td3"), default="ppo")
     parser.add_argument("--no-shaping", dest="shaping", action="store_false",
                         help="train on the environment's reward alone (without PotentialShaping)")
