@@ -1683,3 +1683,15 @@ def test_a_run_closed_after_two_periods_gives_no_numpy_warning():
     sim.step(), sim.step()
     result = sim.close()
     assert result.status == "ok" and not all(np.isfinite(list(result.metrics.values())))
+
+
+def test_a_law_without_an_allocator_is_refused_not_flown_open_loop(cli):
+    """The plant takes only the allocator's command: a law with allocator none would fly open
+    loop without a word (a pointing law on a rigid satellite drifted 0.4 deg). It is refused at
+    load, naming pipeline.allocator; a stepped run may still give the command at each step."""
+    from testbed.stepping.simulation import Simulation
+    override = "pipeline.allocator={type: none}"
+    assert_refused(cli("run", "reorient_minimax", "--out", "x.rrd", "--set", override, "--set", NO_CHECKS),
+                   "pipeline.allocator", "never reach")
+    with Simulation(testbed.load("reorient_minimax", [override, NO_CHECKS, SHORT])) as sim:  # the caller's command
+        sim.step({"allocator": {"gimbal_rates": np.zeros(4)}})

@@ -57,10 +57,11 @@ class RunPlan:
                         self.given_types | _given_types(self.pipeline, stages))
 
 
-def prepare(scenario, stages: dict | None = None) -> RunPlan:
+def prepare(scenario, stages: dict | None = None, stepped: bool = False) -> RunPlan:
     """Build the plant, the pipeline and the reference, and plan the run: every design-time check
     happens here. `stages`: slot -> a Python object (or function) that takes that slot's place in
-    the pipeline, checked like a plug-in (`install_stages`).
+    the pipeline, checked like a plug-in (`install_stages`); `stepped`: a run stepped from Python
+    (testbed.stepping), which may give the allocator's command at each step.
 
     Parameters so extreme that building from them overflows or breaks a factorisation are bad
     input, named by the part being built (model, pipeline slot, reference)."""
@@ -85,11 +86,23 @@ def prepare(scenario, stages: dict | None = None) -> RunPlan:
                          f"which model.system {scenario.system} does not have")
     if stages:
         install_stages(pipeline, plant, stages)
+    if not stepped:
+        refuse_a_lost_law_output(scenario, stages or {})
     references_registry.check_system(scenario)  # after the stages: a reference describes them
     reference_params = {"reference": scenario.reference[1]} if scenario.reference else {}
     with np.errstate(all="raise"), refused_as("reference", params=reference_params):
         reference = references_registry.prepare(scenario, plant) if scenario.reference else None
     return _planned(given, plant, pipeline, reference, timing, _given_types(pipeline, stages or {}))
+
+
+def refuse_a_lost_law_output(scenario, stages: dict) -> None:
+    """A law without an allocator is refused: the plant takes only the allocator's command, so
+    the law's torque would never reach it and the run would fly open loop without a word."""
+    law = "law" in stages or scenario.stages["law"][0] != "none"
+    allocator = "allocator" in stages or scenario.stages["allocator"][0] != "none"
+    if law and not allocator:
+        raise InputError("pipeline.allocator", "none applies no command, so the law's torque would never reach "
+                         "the plant: give an allocator (ideal_torque applies the torque as asked)")
 
 
 def _given_types(pipeline, stages: dict) -> dict:

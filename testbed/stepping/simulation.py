@@ -101,7 +101,7 @@ class Simulation:
             self._guards.enter_context(one_blas_thread())
             self._guards.enter_context(os_exit_raises())
         wall0 = time.perf_counter()
-        self._run = RunInProgress(prepare(scenario, self._stages), self._out, self._keep_trace, wall0=wall0)
+        self._run = RunInProgress(prepare(scenario, self._stages, stepped=True), self._out, self._keep_trace, wall0=wall0)
         self._closed, self.result = False, None
 
     def step(self, command: dict | None = None) -> dict:
