@@ -13,7 +13,7 @@ import sys
 
 import pytest
 
-WATCHED = ("rerun", "scipy", "mujoco", "pandas", "testbed.runner")
+WATCHED = ("rerun", "scipy", "scipy.optimize", "mujoco", "pandas", "testbed.runner")
 PROBE = ("import json, sys\nfrom testbed.cli import main\ntry:\n    code = main(sys.argv[1:])\n"
          "except SystemExit as exc:  # --help\n    code = exc.code\n"
          f"print(json.dumps([code, sorted(m for m in {WATCHED!r} if m in sys.modules)]), file=sys.stderr)\n")
@@ -45,10 +45,15 @@ def test_describe_and_help_read_the_registries_without_rerun(argv):
     assert code == 0 and "rerun" not in modules and "testbed.runner" not in modules, modules
 
 
-def test_a_traced_run_does_not_import_pandas(tmp_path):
-    """pyarrow imported pandas (0.6 s of CPU) to convert the trace's result text."""
+def test_a_traced_run_does_not_import_pandas_nor_the_optimisers(tmp_path):
+    """pyarrow imported pandas (0.6 s of CPU) to convert the trace's result text; three stage
+    modules imported scipy.optimize (0.2-0.4 s) at the top, for runs that never call it."""
     code, modules = imported("run", "gyrostat_free", "--set", "sim.duration_s=1", "--out", str(tmp_path / "r.rrd"))
     assert code == 0 and "rerun" in modules and "pandas" not in modules, modules
+    # gyrostat_free's reference integrates with SciPy (which loads the optimisers); a wheel slew calls neither
+    code, modules = imported("run", "reaction_wheel_slew", "--set", "sim.duration_s=1", "--set", "checks={}",
+                             "--out", str(tmp_path / "w.rrd"))
+    assert code == 0 and "rerun" in modules and "scipy.optimize" not in modules, modules
 
 
 def test_pyarrow_still_makes_pandas_objects_after_a_trace_is_written():

@@ -7,7 +7,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import least_squares
 
 
 def pitch_frequency(inertia, n: float) -> float:
@@ -58,4 +57,5 @@ def fitted_frequencies(t, signals, k: int) -> np.ndarray:
         return np.concatenate(out)
 
     start = np.concatenate([guess, np.zeros(per * len(signals))])
+    from scipy.optimize import least_squares  # on use: at the top it would cost every command start-up time
     return np.sort(least_squares(residual, start).x[:k])

@@ -17,7 +17,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import root
 
 from testbed.systems.cmg_cluster.momentum_envelope import singular_momenta
 from testbed.systems.cmg_cluster.momentum_gauge import fibonacci_sphere, unit_axes
@@ -62,6 +61,8 @@ def ray_crossings(direction, pattern, axes, h=1.0, starts: int = 400) -> list[Cr
             return np.array([np.inf, np.inf])
         H = singular_momenta(u, pattern, g, h)[0].sum(axis=0)
         return np.array([H @ a, H @ b]) / h_max
+
+    from scipy.optimize import root  # on use: at the top it would cost every command start-up time
 
     found: list[Crossing] = []
     for u0 in fibonacci_sphere(starts):

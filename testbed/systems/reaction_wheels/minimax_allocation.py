@@ -16,7 +16,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linprog
 
 from testbed.pipeline import stage
 from testbed.scenario.schema import param
@@ -37,6 +36,7 @@ def least_largest_torque(distribution, wanted, torque_max, friction, reach):
     cost[-1] = 1.0
     identity = np.eye(n)
     upper = np.block([[identity, -torque_max[:, None]], [-identity, -torque_max[:, None]]])
+    from scipy.optimize import linprog  # on use: at the top it would cost every command start-up time
     result = linprog(cost, A_ub=upper, b_ub=np.concatenate([-friction, friction]),
                      A_eq=np.hstack([distribution, np.zeros((3, 1))]), b_eq=wanted,
                      bounds=list(zip(*reach)) + [(0.0, None)], method="highs")
@@ -78,6 +78,7 @@ def largest_share(distribution, wanted, bounds):
     n = distribution.shape[1]
     cost = np.zeros(n + 1)
     cost[-1] = -1.0
+    from scipy.optimize import linprog
     result = linprog(cost, A_eq=np.hstack([distribution, -np.asarray(wanted)[:, None]]), b_eq=np.zeros(3),
                      bounds=list(zip(*bounds)) + [(0.0, 1.0)], method="highs")
     return (result.x[:n], float(result.x[-1])) if result.status == 0 else None
