@@ -224,6 +224,16 @@ def pyramid_measure(beta, skew):
     return np.sqrt(np.linalg.det(J @ np.swapaxes(J, -1, -2)))
 
 
+def assert_flies_the_line(plan, skew, d, times, s, rate):
+    """A plan checked with Wie's pyramid formulas, not the project's: on the line H = s(t) d to
+    1e-8 h (round-off of the planner's own refinement), every rate within `rate`, sqrt det >= 0.05."""
+    from testbed.steering.planned_path import PlannedPath
+    assert isinstance(plan, PlannedPath)
+    assert np.abs(pyramid_momentum(plan.angles, skew) - s[:, None] * d).max() < 1e-8
+    assert (np.abs(np.diff(plan.angles, axis=0)).max(axis=-1) / np.diff(times)).max() <= rate
+    assert pyramid_measure(plan.angles, skew).min() >= 0.05
+
+
 def test_a_fast_slew_far_inside_the_pyramids_envelope_is_planned(bench):
     # A 20 s slew (not shipped, half the benchmark's 40 s) at 0.53 of the pyramid's support along d, a fifth
     # of the torque the rate limit allows (|s'| = 4 r / T = 0.34 h/s against 30 deg/s x S(d) = 1.7 h/s). With 60
@@ -231,7 +241,7 @@ def test_a_fast_slew_far_inside_the_pyramids_envelope_is_planned(bench):
     # between levels, and the plan was refused. level_count takes 32 levels here (60 for the benchmark's
     # 40 s slews) and the plan is checked with Wie's pyramid formulas, not the project's: on the line
     # H = s(t) d, every rate within 30 deg/s, sqrt det >= 0.05.
-    from testbed.steering.planned_path import PlannedPath, level_count, plan_gimbal_path
+    from testbed.steering.planned_path import level_count, plan_gimbal_path
     geo, skew = bench.geometry("pyramid"), np.arccos(1 / np.sqrt(3))
     d = np.array([-0.3677550736025256, 0.3198575830161004, -0.8731823019431276])
     times, rate = np.linspace(0.0, 20.0, 201), np.radians(30.0)
@@ -242,10 +252,7 @@ def test_a_fast_slew_far_inside_the_pyramids_envelope_is_planned(bench):
     start = np.radians(bench.start_sets(geo)[1])
     assert np.abs(pyramid_momentum(start, skew)).max() < 1e-12
     plan = plan_gimbal_path(geo.momentum, geo.unit_jacobian, start, d, times, s, rate, reconfiguration_travel=rate * 5.0)
-    assert isinstance(plan, PlannedPath)
-    assert np.abs(pyramid_momentum(plan.angles, skew) - s[:, None] * d).max() < 1e-8
-    assert (np.abs(np.diff(plan.angles, axis=0)).max(axis=-1) / np.diff(times)).max() <= rate
-    assert pyramid_measure(plan.angles, skew).min() >= 0.05
+    assert_flies_the_line(plan, skew, d, times, s, rate)
 
 
 # Four slews not in the repository on the 53.13 deg pyramid, at 0.47-0.57 of its support, T = 25 s, 20 deg/s,
@@ -261,7 +268,7 @@ def test_slews_at_half_the_53_pyramids_support_are_planned(bench, direction, fra
     # fibre, up to a spacing; three lost every path that way, one timed its path at 21 deg/s. Planned again
     # on samples 1.5 and 1 deg apart (planned_path.REFINEMENTS) each flies, checked with Wie's pyramid
     # formulas, not the project's: on the line H = s(t) d to 1e-8 h, every rate within 20 deg/s, sqrt det >= 0.05.
-    from testbed.steering.planned_path import PlannedPath, plan_gimbal_path
+    from testbed.steering.planned_path import plan_gimbal_path
     geo, skew = bench.geometry("pyramid_53"), np.arccos(0.6)
     d = np.asarray(direction) / np.linalg.norm(direction)
     times, rate = np.linspace(0.0, 25.0, 251), np.radians(20.0)
@@ -269,10 +276,7 @@ def test_slews_at_half_the_53_pyramids_support_are_planned(bench, direction, fra
     begin = np.radians(bench.start_sets(geo)[start])
     assert np.abs(pyramid_momentum(begin, skew)).max() < 1e-12
     plan = plan_gimbal_path(geo.momentum, geo.unit_jacobian, begin, d, times, s, rate, reconfiguration_travel=rate * 5.0)
-    assert isinstance(plan, PlannedPath)
-    assert np.abs(pyramid_momentum(plan.angles, skew) - s[:, None] * d).max() < 1e-8
-    assert (np.abs(np.diff(plan.angles, axis=0)).max(axis=-1) / np.diff(times)).max() <= rate
-    assert pyramid_measure(plan.angles, skew).min() >= 0.05
+    assert_flies_the_line(plan, skew, d, times, s, rate)
 
 
 def test_a_slew_refused_for_torque_says_so_and_plans_slower(bench):
