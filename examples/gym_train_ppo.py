@@ -11,8 +11,8 @@ the success bonus is a hundred times a period's cost); the observation is alread
 the environment. `--algorithm sac|td3` tries stable-baselines3's off-policy learners instead.
 Written:
 
-- `docs/images/ppo_learning_curve.csv`: per block of training steps, the episodes that ended in
-  it, the share that succeeded (the stochastic policy, as it trained) and their mean return
+- `runs/ppo_learning_curve.csv` (a run's output, not committed): per block of training steps,
+  the episodes that ended in it, the share that succeeded (the stochastic policy, as it trained) and their mean return
   (the environment's own, without the shaping);
 - `docs/images/ppo_learning_curve.svg`: the success share against the training steps;
 - printed: each training episode as it ends; the trained policy's success rate, acting
@@ -33,6 +33,7 @@ import testbed.gym  # noqa: F401  (registers testbed/CmgSlewShort-v0)
 
 ENV_ID = "testbed/CmgSlewShort-v0"
 DOCS_IMAGES = Path(__file__).resolve().parents[1] / "docs" / "images"
+CURVE_TABLE = Path(__file__).resolve().parents[1] / "runs" / "ppo_learning_curve.csv"
 EVALUATION_SEEDS = range(1000, 1020)   # never used in training (training draws from seed 0's stream)
 GAMMA = 0.99
 BLOCK_STEPS = 1000                     # the learning curve's resolution
@@ -173,14 +174,16 @@ def main(argv=None) -> int:
     parser.add_argument("--algorithm", choices=("ppo", "sac", "td3"), default="ppo")
     parser.add_argument("--no-shaping", dest="shaping", action="store_false",
                         help="train on the environment's reward alone (without PotentialShaping)")
-    parser.add_argument("--out", type=Path, default=DOCS_IMAGES, help="where the CSV and the SVG go")
+    parser.add_argument("--out", type=Path, default=DOCS_IMAGES, help="where the SVG goes")
+    parser.add_argument("--table", type=Path, default=CURVE_TABLE, help="the learning curve's CSV")
     args = parser.parse_args(argv)
     model, episodes = train(args.steps, args.algorithm, shaping=args.shaping)
     trained = success_rate(lambda o: model.predict(o, deterministic=True)[0])
     plain_pd = success_rate(lambda o: np.clip(o[0:3] - o[3:6], -1.0, 1.0))
     rows = learning_curve(episodes, args.steps)
     args.out.mkdir(parents=True, exist_ok=True)
-    with open(args.out / "ppo_learning_curve.csv", "w", newline="") as f:
+    args.table.parent.mkdir(parents=True, exist_ok=True)
+    with open(args.table, "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=["steps", "episodes", "success_rate", "mean_return"])
         writer.writeheader()
         writer.writerows(rows)
