@@ -36,7 +36,7 @@ from testbed.registry import DuplicateName, restore, snapshot
 # the folders that register no stage, system, metric or reference (testbed.gym registers Gymnasium
 # environments, once imported); every other folder of testbed holds built-in plug-ins
 SHARED_PACKAGES = ("testbed.math", "testbed.campaign", "testbed.recording", "testbed.cli", "testbed.scenario",
-                   "testbed.stepping", "testbed.gym", "testbed.run_core")
+                   "testbed.stepping", "testbed.gym", "testbed.run_core", "testbed.batch")
 ENTRY_POINT_GROUP = "testbed.plugins"
 
 _discovered = False

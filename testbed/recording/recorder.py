@@ -111,9 +111,20 @@ class Recorder:
         if n == 0:
             return
         chunk = Chunk(self._first, self._time[:n].copy(), {key: buf[:n].copy() for key, buf in self._buffers.items()})
-        self.last_time = float(chunk.time[-1])
         for buf in self._buffers.values():
             buf[:n] = np.nan  # rows the next chunk's samples leave out stay NaN
+        self._hand_on(chunk)
+
+    def take_chunk(self, chunk: Chunk) -> None:
+        """Take `chunk`, the next rows of this run sampled elsewhere (testbed.batch's recorder of
+        many worlds), as if they had been sampled here and flushed: handed on, then kept."""
+        self.flush()
+        self.count += len(chunk.time)
+        self._hand_on(chunk)
+
+    def _hand_on(self, chunk: Chunk) -> None:
+        """The chunk's rows, the last flushed, to `on_chunk` and the kept history."""
+        self.last_time = float(chunk.time[-1])
         self._first = self.count
         if self.keep is None or self.keep:
             self._kept_time.put(chunk.first_row, chunk.time)

@@ -28,6 +28,9 @@ from testbed.run_core.plan import RunPlan, prepare
 from testbed.run_core.result import RunData, RunResult
 
 
+# What stops a run before its end: the physics' divergence, a stage's failure, the plant's read-outs' overflow.
+STOPPING = (SimulationDiverged, StageFailed, FloatingPointError)
+
 _blas_controller: ThreadpoolController | None = None
 
 
@@ -148,17 +151,27 @@ class RunInProgress:
             with np.errstate(over="raise", invalid="raise", divide="raise"):
                 self._loop(self.plant, self.pipeline, self.recorder, start * per_tick, stop * per_tick, timing,
                            progress)
-        except SimulationDiverged as exc:
+        except STOPPING as exc:
+            self.stop(exc)
+        if self.status == "ok":
+            self.reached(stop)
+
+    def stop(self, exc: BaseException) -> None:
+        """End the run where `exc` (one of `STOPPING`) stopped it: its status and error line."""
+        if isinstance(exc, SimulationDiverged):
             self.status, self.error = "diverged", str(exc)
-        except StageFailed as exc:
+        elif isinstance(exc, StageFailed):
             self.status, self.error = "method_failed" if exc.method else "error", str(exc)
-        except FloatingPointError as exc:  # the plant's own read-outs overflowed: the state blew up
+        else:  # FloatingPointError: the plant's own read-outs overflowed, the state blew up
             self.status, self.error = "diverged", str(SimulationDiverged(self.plant.time,
                                                                          f"{exc} in the plant's read-outs"))
-        if self.status == "ok":
-            self.ticks_done = stop
-            if stop == self.n_ticks:  # the final state, on the trace grid or not
-                self.recorder.sample(timing.end_time_s, {"truth": self.plant.truth()})
+
+    def reached(self, ticks: int) -> None:
+        """`ticks` control periods have run (by `advance`, or by a batch of worlds in lockstep);
+        after the last, the final truth sample."""
+        self.ticks_done = ticks
+        if ticks == self.n_ticks:  # the final state, on the trace grid or not
+            self.recorder.sample(self.plan.timing.end_time_s, {"truth": self.plant.truth()})
 
     def finish(self) -> RunResult:
         """The run's result: the trace flushed, the reference finished, the metrics and checks

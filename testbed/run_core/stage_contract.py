@@ -86,6 +86,8 @@ class Declared:
     params: Any = None                 # the validated parameters it was built from (a campaign reads them back)
     applied: Callable | None = None    # applied() -> {parameter: value as the stage runs it}, where that
     #                                    differs from `params` (testbed.campaign.applied_values)
+    batched: Callable | None = None    # classmethod batched(stages) -> its form on many worlds' (N, ...)
+    #                                    arrays (testbed.batch.stage_forms.BatchedForm); None: per world
 
     @classmethod
     def of(cls, stage) -> "Declared":

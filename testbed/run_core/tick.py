@@ -159,6 +159,55 @@ class Pipeline:
         except BaseException as exc:
             self._raise_failure(t, slot, exc)
 
+    # --- one slot at a time, for a world of a batch (testbed.batch.stage_forms.PerWorld) ---------
+    def run_sensor(self, t: float, plant) -> dict:
+        """The sensor's measurement at t, checked as in `tick` ({} from a built-in empty slot)."""
+        try:
+            if not self._sensing:
+                return {}
+            out = self.sensor.measure(t, plant)
+            if self._sensor_check is not None:
+                self._sensor_check(t, out)
+            return out
+        except BaseException as exc:
+            self._raise_failure(t, "sensor", exc)
+
+    def run_estimator(self, t: float, measurement: dict, command: dict) -> dict:
+        """The estimator's output at t, checked as in `tick`."""
+        try:
+            if not self._estimating:
+                return {}
+            out = self.estimator.estimate(t, measurement, command)
+            if self._estimator_check is not None:
+                self._estimator_check(t, out)
+            return out
+        except BaseException as exc:
+            self._raise_failure(t, "estimator", exc)
+
+    def run_law(self, t: float, given: dict) -> dict:
+        """The law's demand at t from `given` (the estimate, with the internal momentum if it reads it)."""
+        try:
+            if not self._controlling:
+                return {}
+            out = self.law.torque(t, given)
+            if self._law_check is not None:
+                self._law_check(t, out)
+            return out
+        except BaseException as exc:
+            self._raise_failure(t, "law", exc)
+
+    def run_allocator(self, t: float, demand: dict, estimate: dict, actuators: dict) -> dict:
+        """The allocator's command at t, checked as in `tick`."""
+        try:
+            if not self._allocating:
+                return {}
+            out = self.allocator.allocate(t, demand, estimate, actuators)
+            if self._allocator_check is not None:
+                self._allocator_check(t, out)
+            return out
+        except BaseException as exc:
+            self._raise_failure(t, "allocator", exc)
+
     def statistics(self) -> dict:
         """slot -> the statistics of each stage that keeps them (`Declared.statistics`), as they are now."""
         return {slot: stats for slot, stage_object in self.stages().items()

@@ -1,0 +1,226 @@
+"""Many worlds stepped in lockstep: one control tick of the stages for all of them on (N, ...)
+arrays, then each world's physics, tick by tick (docs/architecture.md "Many worlds").
+
+Each world is a whole run of its own plan (testbed.run_core.plan), its own model (a campaign's
+dispersions may differ from world to world), recorder, reductions and result: a `Batch` only
+shares the stages' Python cost, through their batched forms (testbed.batch.stage_forms). A
+world that diverges or fails leaves the batch with its row and trace as a single run keeps them;
+its batch-mates go on.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from testbed.batch.batch_recorder import BatchRecorder
+from testbed.batch.stage_forms import WorldsFailed, declared_alike, forms_of, rows_of, stacked
+from testbed.plant import SimulationDiverged
+from testbed.run_core.in_progress import STOPPING, RunInProgress, one_blas_thread
+from testbed.run_core.loop import CHECK_EVERY_TICKS, block_ticks
+from testbed.run_core.plan import RunPlan
+from testbed.run_core.stage_contract import StageFailed
+
+SIGNAL_GROUPS = ("sensor", "estimator", "law", "allocator")
+
+
+class Batch:
+    """N runs of plans sharing one timing, stepped together: `advance(ticks)` runs the next control
+    periods of every world still going, `finish()` gives each world's `RunResult` (as
+    `run_scenario` would: same status, metrics and checks; bit for bit where every slot runs per
+    world, to the batched forms' round-off otherwise). `outs`: each world's `.rrd` path or None."""
+
+    def __init__(self, plans: list[RunPlan], outs: list | None = None, keep_data: bool = False):
+        if not plans:
+            raise ValueError("a batch needs at least one world")
+        timing = plans[0].timing
+        for plan in plans[1:]:
+            if plan.timing != timing:
+                raise ValueError(f"worlds of a batch share one timing: {plan.scenario.name} differs from "
+                                 f"{plans[0].scenario.name} (batch them apart)")
+        if timing.multirate:
+            raise ValueError("a batch steps one rate: sensors faster than the law run as single runs")
+        self.timing = timing
+        outs = list(outs) if outs is not None else [None] * len(plans)
+        self.runs = [RunInProgress(plan, out, keep_data) for plan, out in zip(plans, outs)]
+        pipelines = [plan.pipeline for plan in plans]
+        self.declared = {slot: declared_alike(pipelines, slot) for slot in SIGNAL_GROUPS}
+        self.forms = forms_of(pipelines)
+        self.live = np.arange(len(plans))  # the worlds still going, in order
+        self.plants = [plan.plant for plan in plans]
+        self.pipelines = pipelines
+        self.steppers = [plant.stepper(timing.steps_per_tick) for plant in self.plants]
+        self.recorder = BatchRecorder([run.recorder for run in self.runs])
+        self.outputs = {group: {} for group in SIGNAL_GROUPS}  # the last tick's, rows of the live worlds
+        self.ticks_done = 0
+
+    def __enter__(self) -> "Batch":
+        return self
+
+    def __exit__(self, *exc_info) -> bool:
+        """Close every world's trace (removed if the block ends by an exception)."""
+        result = False
+        for run in self.runs:
+            result = run.__exit__(*exc_info) or result
+        return result
+
+    @property
+    def running(self) -> bool:
+        return len(self.live) > 0 and self.ticks_done < self.timing.n_ticks
+
+    def advance(self, ticks: int) -> None:
+        """Run the next `ticks` control periods of every live world (fewer at the end of the run)."""
+        if not self.running:
+            return
+        stop = min(self.ticks_done + ticks, self.timing.n_ticks)
+        with one_blas_thread(), np.errstate(over="raise", invalid="raise", divide="raise"):
+            first = self.ticks_done
+            block = block_ticks(self.timing.trace_every, CHECK_EVERY_TICKS)
+            while first < stop and len(self.live):
+                last = min(first + block - first % block, stop)
+                self._block(first, last)
+                first = last
+        self.ticks_done = stop
+        if stop == self.timing.n_ticks:
+            self.recorder.flush()
+            for world in self.live.tolist():
+                self._ended(world, None)
+
+    def _block(self, first: int, last: int) -> None:
+        """Ticks first .. last - 1, a trace sample at the first when it falls on the trace grid; every
+        live world's physics checked for a bad state at the end."""
+        timing = self.timing
+        tc, steps = timing.control_period_s, timing.steps_per_tick
+        for k in range(first, last):
+            t = k * tc
+            self._tick(t, first)
+            if k == first and k % timing.trace_every == 0:
+                self._sample(t)
+            for world in self.live.tolist():
+                self.steppers[world]()
+        t0 = first * tc
+        failed = {}
+        for row, world in enumerate(self.live.tolist()):
+            try:
+                self.plants[world].check_state(t0, (last - first) * steps)
+            except SimulationDiverged as exc:
+                failed[row] = exc
+        self._leave(failed, first)
+
+    def _tick(self, t: float, block_start: int) -> None:
+        """The four slots at time t on the live worlds, then each world's command to its plant."""
+        outputs, forms = self.outputs, self.forms
+        outputs["sensor"] = self._slot(t, block_start, lambda: forms["sensor"].measure(
+            t, [self.plants[w] for w in self.live.tolist()]))
+        outputs["estimator"] = self._slot(t, block_start, lambda: forms["estimator"].estimate(
+            t, outputs["sensor"], outputs["allocator"]))
+        given = {}
+        if "internal_momentum" in self.declared["law"].inputs:
+            given = {"internal_momentum": self._read(t, block_start, lambda plant: plant.internal_momentum_body())}
+        given = outputs["estimator"] | given  # (after the read: a world it failed has left the estimates too)
+        outputs["law"] = self._slot(t, block_start, lambda: forms["law"].torque(t, given))
+        actuators = (self._read(t, block_start, lambda plant: plant.actuator_state())
+                     if self.declared["allocator"].needs_actuators else {})
+        outputs["allocator"] = self._slot(t, block_start, lambda: forms["allocator"].allocate(
+            t, outputs["law"], outputs["estimator"], actuators))
+        failed = {}
+        for row, (world, command) in enumerate(zip(self.live.tolist(), rows_of(outputs["allocator"], len(self.live)))):
+            try:
+                self.plants[world].apply(command)
+            except BaseException as exc:
+                try:
+                    self.pipelines[world]._raise_failure(t, "allocator", exc)
+                except StageFailed as failure:
+                    failed[row] = failure
+        self._leave(failed, block_start, t)
+
+    def _slot(self, t: float, block_start: int, call) -> dict:
+        """A slot's outputs for the live worlds; the worlds it failed leave the batch."""
+        try:
+            return call()
+        except WorldsFailed as exc:
+            self._leave(exc.failures, block_start, t)
+            return {key: values[self._kept] for key, values in exc.outputs.items()}
+
+    def _read(self, t: float, block_start: int, read):
+        """`read(plant)` of every live world, stacked; a world whose read-outs overflow leaves (diverged)."""
+        values, failed = [], {}
+        for row, world in enumerate(self.live.tolist()):
+            try:
+                values.append(read(self.plants[world]))
+            except FloatingPointError as exc:
+                failed[row] = exc
+                values.append(None)
+        if failed:
+            self._leave(failed, block_start, t)
+            values = [v for v in values if v is not None]
+        return stacked(values) if values and isinstance(values[0], dict) else np.array(values, dtype=float)
+
+    def _sample(self, t: float) -> None:
+        """A trace sample at t: the stages' last outputs and each live world's truth."""
+        truths, failed = [], {}
+        for row, world in enumerate(self.live.tolist()):
+            try:
+                truths.append(self.plants[world].truth())
+            except FloatingPointError as exc:
+                failed[row] = exc
+                truths.append(None)
+        if failed:
+            self._leave(failed, int(round(t / self.timing.control_period_s)), t)
+            truths = [truth for truth in truths if truth is not None]
+        groups = {group: self.outputs[group] for group in SIGNAL_GROUPS if self.outputs[group]}
+        groups["truth"] = stacked(truths)
+        self.recorder.sample(t, groups, self.live)
+
+    def _leave(self, failed: dict, block_start: int, t: float | None = None) -> None:
+        """The worlds at rows `failed` (row -> what stopped it) leave the batch: a stage's failure is
+        reported as the physics' divergence when the physics met a bad state first (as `run_ticks`
+        does), their traces flushed, their stages' state written back."""
+        self._kept = None
+        if not failed:
+            return
+        timing = self.timing
+        self.recorder.flush()
+        live = self.live.tolist()
+        for row, exc in sorted(failed.items()):
+            world = live[row]
+            if isinstance(exc, StageFailed) and t is not None:
+                steps = round(t / timing.control_period_s - block_start) * timing.steps_per_tick
+                try:
+                    self.plants[world].check_state(block_start * timing.control_period_s, steps)
+                except SimulationDiverged as diverged:
+                    exc = diverged
+            for form in self.forms.values():
+                form.settle(row)
+            self._ended(world, exc)
+        kept = np.array([row for row in range(len(live)) if row not in failed], dtype=int)
+        for form in self.forms.values():
+            form.keep(kept)
+        for group in SIGNAL_GROUPS:
+            self.outputs[group] = {key: values[kept] for key, values in self.outputs[group].items()}
+        self.live = self.live[kept]
+        self._kept = kept
+
+    def _ended(self, world: int, exc: BaseException | None) -> None:
+        """World `world` ended: stopped by `exc` (one of STOPPING), or at the end of the run (None)."""
+        run = self.runs[world]
+        if exc is None:
+            for row, live_world in enumerate(self.live.tolist()):
+                if live_world == world:
+                    for form in self.forms.values():
+                        form.settle(row)
+            run.reached(self.timing.n_ticks)
+        else:
+            assert isinstance(exc, STOPPING), exc
+            run.ticks_done = self.ticks_done
+            run.stop(exc)
+
+    def finish(self) -> list:
+        """Each world's RunResult, in the order of the plans."""
+        return [run.finish() for run in self.runs]
+
+
+def run_batch(plans: list[RunPlan], outs: list | None = None, keep_data: bool = False) -> list:
+    """Run the plans' worlds in lockstep to their end: each world's RunResult, in order (`Batch`)."""
+    with Batch(plans, outs, keep_data) as batch:
+        batch.advance(batch.timing.n_ticks)
+        return batch.finish()

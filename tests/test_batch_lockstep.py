@@ -1,0 +1,110 @@
+"""Many worlds in lockstep (testbed.batch) against the same cases run one by one.
+
+A world of a batch is its own run: each world's status, checks and metrics must be those of its
+single run. Where every slot runs per world the arithmetic is the single run's, so they agree to
+the bit; a slot with a batched form agrees to its round-off (BATCHED_REL, from the conditioning of
+the metrics compared: end errors and drifts of well-conditioned runs, a few ulps of the state
+amplified by at most the runs' length).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import testbed
+from testbed.batch import Batch, run_batch
+from testbed.campaign.orchestration import load_cases
+from testbed.run_core.plan import prepare
+from testbed.scenario.loading import parse
+
+# metrics of a batched world against its single run: relative to the metric's own size or to
+# ABS_FLOOR where it sits at the round-off floor (a drift of 1e-15 may come out 3e-15)
+BATCHED_REL, ABS_FLOOR = 1e-9, 1e-13
+
+
+def agree(single, batched) -> None:
+    """A batched world's result is its single run's: status, error, checks' verdicts, metrics."""
+    assert batched.status == single.status, (single.scenario, batched.error, single.error)
+    assert batched.error == single.error
+    assert [(c["name"], c["passed"]) for c in batched.checks] == [(c["name"], c["passed"]) for c in single.checks]
+    assert batched.metrics.keys() == single.metrics.keys()
+    for name, value in single.metrics.items():
+        other = batched.metrics[name]
+        if isinstance(value, float) and math.isnan(value):
+            assert isinstance(other, float) and math.isnan(other), name
+        else:
+            assert other == pytest.approx(value, rel=BATCHED_REL, abs=ABS_FLOOR), name
+
+
+def singles_and_batch(scenarios):
+    singles = [testbed.run(scenario) for scenario in scenarios]
+    return singles, run_batch([prepare(scenario) for scenario in scenarios])
+
+
+def test_the_flagship_in_lockstep_is_each_world_run_alone():
+    rates = ([0.25, -0.25, 0.0], [0.4, -0.1, 0.2], [-0.3, 0.35, -0.1])  # two of them not in the repository
+    scenarios = [testbed.load("lebedev_spinup_cmg", ["sim.duration_s=40", f"initial.omega_deg_s={list(w)}"])
+                 for w in rates]
+    singles, batched = singles_and_batch(scenarios)
+    for single, world in zip(singles, batched):
+        agree(single, world)
+    # the worlds differ: a batch that handed one world's numbers to another would not pass above
+    assert len({r.metrics["spin_error_final_deg_s"] for r in batched}) == 3
+
+
+def campaign_scenarios(name: str, indices, overrides=()):
+    _, _, cases = load_cases(name, list(overrides), indices)
+    return [parse(case.data, case.source) for case in cases]
+
+
+def test_a_slew_campaign_in_lockstep_is_each_case_run_alone():
+    scenarios = campaign_scenarios("reorient_campaign", [0, 1, 2, 3], ["sim.duration_s=20"])
+    singles, batched = singles_and_batch(scenarios)
+    for single, world in zip(singles, batched):
+        agree(single, world)
+
+
+def test_a_fault_campaign_in_lockstep_is_each_case_run_alone():
+    scenarios = campaign_scenarios("reorient_fault_campaign", [0, 1, 2], ["sim.duration_s=60"])
+    singles, batched = singles_and_batch(scenarios)
+    for single, world in zip(singles, batched):
+        agree(single, world)
+
+
+class FailingGyro:
+    """A sensor that fails at t >= `after` [s] in the one world it is given to."""
+
+    def __init__(self, after: float):
+        self.after = after
+
+    def measure(self, t, plant):
+        if t >= self.after:
+            raise RuntimeError("the gyro's bus went quiet")
+        return {"y": np.array([float(np.sum(plant.omega())) / math.sqrt(3.0)])}
+
+
+def test_a_world_that_fails_leaves_the_batch_and_the_others_go_on():
+    overrides = ["sim.duration_s=10"]  # the flagship's gyro axis is (1, 1, 1)/sqrt(3), as FailingGyro's
+    scenarios = [testbed.load("lebedev_spinup_cmg", overrides + [f"initial.omega_deg_s=[{w}, 0.1, 0.0]"])
+                 for w in (0.2, 0.3, 0.4)]
+    stages = [{"sensor": FailingGyro(99.0)}, {"sensor": FailingGyro(2.5)}, {"sensor": FailingGyro(99.0)}]
+    singles = [testbed.run(s, stages={"sensor": FailingGyro(g["sensor"].after)}) for s, g in zip(scenarios, stages)]
+    plans = [prepare(s, g) for s, g in zip(scenarios, stages)]
+    with Batch(plans) as batch:
+        batch.advance(batch.timing.n_ticks)
+        batched = batch.finish()
+    assert [r.status for r in batched] == ["ok", "error", "ok"]
+    assert "the gyro's bus went quiet" in batched[1].error and "t = 2.5 s" in batched[1].error
+    for single, world in zip(singles, batched):
+        agree(single, world)
+    # the failed world's trace stops where its single run's does
+    assert batched[1].sim_s == singles[1].sim_s < batched[0].sim_s
+
+
+def test_worlds_of_different_timing_are_refused_together():
+    plans = [prepare(testbed.load("lebedev_spinup_cmg", [f"sim.duration_s={d}"])) for d in (5, 6)]
+    with pytest.raises(ValueError, match="share one timing"):
+        Batch(plans)
