@@ -203,6 +203,10 @@ class Plant:
     # Command keys this plant's actuators take, with their shapes; other keys of a command are diagnostics.
     actuators = {"body_torque": (3,)}
 
+    # The plants of many worlds stepped in lockstep, on (N, ...) arrays: a class taking (plants, steps
+    # a tick) like testbed.batch.plant_group.PerWorldPlants, which a batch uses when this is None.
+    group_form = None
+
     def apply(self, command: dict[str, np.ndarray]) -> None:
         """Body torque on the bus [N m, body axes]; a plant with other actuators extends this."""
         torque = command.get("body_torque")

@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from testbed.batch.batch_recorder import BatchRecorder
-from testbed.batch.stage_forms import WorldsFailed, declared_alike, forms_of, rows_of, stacked
-from testbed.plant import SimulationDiverged
+from testbed.batch.plant_group import group_of
+from testbed.batch.stage_forms import WorldsFailed, declared_alike, forms_of
 from testbed.run_core.in_progress import STOPPING, RunInProgress, one_blas_thread
 from testbed.run_core.loop import CHECK_EVERY_TICKS, block_ticks
 from testbed.run_core.plan import RunPlan
@@ -46,9 +46,8 @@ class Batch:
         self.declared = {slot: declared_alike(pipelines, slot) for slot in SIGNAL_GROUPS}
         self.forms = forms_of(pipelines)
         self.live = np.arange(len(plans))  # the worlds still going, in order
-        self.plants = [plan.plant for plan in plans]
         self.pipelines = pipelines
-        self.steppers = [plant.stepper(timing.steps_per_tick) for plant in self.plants]
+        self.group = group_of([plan.plant for plan in plans], timing.steps_per_tick)
         self.recorder = BatchRecorder([run.recorder for run in self.runs])
         self.outputs = {group: {} for group in SIGNAL_GROUPS}  # the last tick's, rows of the live worlds
         self.ticks_done = 0
@@ -95,80 +94,48 @@ class Batch:
             self._tick(t, first)
             if k == first and k % timing.trace_every == 0:
                 self._sample(t)
-            for world in self.live.tolist():
-                self.steppers[world]()
-        t0 = first * tc
-        failed = {}
-        for row, world in enumerate(self.live.tolist()):
-            try:
-                self.plants[world].check_state(t0, (last - first) * steps)
-            except SimulationDiverged as exc:
-                failed[row] = exc
-        self._leave(failed, first)
+            self.group.step()
+        self._leave(self.group.check_state(first * tc, (last - first) * steps), first)
 
     def _tick(self, t: float, block_start: int) -> None:
         """The four slots at time t on the live worlds, then each world's command to its plant."""
-        outputs, forms = self.outputs, self.forms
-        outputs["sensor"] = self._slot(t, block_start, lambda: forms["sensor"].measure(
-            t, [self.plants[w] for w in self.live.tolist()]))
+        outputs, forms, group = self.outputs, self.forms, self.group
+        outputs["sensor"] = self._slot(t, block_start, lambda: forms["sensor"].measure(t, group.plants))
         outputs["estimator"] = self._slot(t, block_start, lambda: forms["estimator"].estimate(
             t, outputs["sensor"], outputs["allocator"]))
         given = {}
         if "internal_momentum" in self.declared["law"].inputs:
-            given = {"internal_momentum": self._read(t, block_start, lambda plant: plant.internal_momentum_body())}
+            given = {"internal_momentum": self._slot(t, block_start, group.internal_momentum_body)}
         given = outputs["estimator"] | given  # (after the read: a world it failed has left the estimates too)
         outputs["law"] = self._slot(t, block_start, lambda: forms["law"].torque(t, given))
-        actuators = (self._read(t, block_start, lambda plant: plant.actuator_state())
+        actuators = (self._slot(t, block_start, group.actuator_state)
                      if self.declared["allocator"].needs_actuators else {})
         outputs["allocator"] = self._slot(t, block_start, lambda: forms["allocator"].allocate(
             t, outputs["law"], outputs["estimator"], actuators))
         failed = {}
-        for row, (world, command) in enumerate(zip(self.live.tolist(), rows_of(outputs["allocator"], len(self.live)))):
-            try:
-                self.plants[world].apply(command)
-            except BaseException as exc:
-                try:
-                    self.pipelines[world]._raise_failure(t, "allocator", exc)
-                except StageFailed as failure:
-                    failed[row] = failure
+        for row, exc in group.apply(outputs["allocator"]).items():
+            try:  # the plant refusing its command is the allocator's failure, as in a single run's tick
+                self.pipelines[self.live[row]]._raise_failure(t, "allocator", exc)
+            except StageFailed as failure:
+                failed[row] = failure
         self._leave(failed, block_start, t)
 
-    def _slot(self, t: float, block_start: int, call) -> dict:
-        """A slot's outputs for the live worlds; the worlds it failed leave the batch."""
+    def _slot(self, t: float, block_start: int, call):
+        """A slot's outputs (or the plants' read-outs) for the live worlds; the worlds it failed
+        leave the batch."""
         try:
             return call()
         except WorldsFailed as exc:
             self._leave(exc.failures, block_start, t)
-            return {key: values[self._kept] for key, values in exc.outputs.items()}
-
-    def _read(self, t: float, block_start: int, read):
-        """`read(plant)` of every live world, stacked; a world whose read-outs overflow leaves (diverged)."""
-        values, failed = [], {}
-        for row, world in enumerate(self.live.tolist()):
-            try:
-                values.append(read(self.plants[world]))
-            except FloatingPointError as exc:
-                failed[row] = exc
-                values.append(None)
-        if failed:
-            self._leave(failed, block_start, t)
-            values = [v for v in values if v is not None]
-        return stacked(values) if values and isinstance(values[0], dict) else np.array(values, dtype=float)
+            if isinstance(exc.outputs, dict):
+                return {key: values[self._kept] for key, values in exc.outputs.items()}
+            return exc.outputs[self._kept]
 
     def _sample(self, t: float) -> None:
         """A trace sample at t: the stages' last outputs and each live world's truth."""
-        truths, failed = [], {}
-        for row, world in enumerate(self.live.tolist()):
-            try:
-                truths.append(self.plants[world].truth())
-            except FloatingPointError as exc:
-                failed[row] = exc
-                truths.append(None)
-        if failed:
-            self._leave(failed, int(round(t / self.timing.control_period_s)), t)
-            truths = [truth for truth in truths if truth is not None]
+        truth = self._slot(t, round(t / self.timing.control_period_s), self.group.truth)
         groups = {group: self.outputs[group] for group in SIGNAL_GROUPS if self.outputs[group]}
-        groups["truth"] = stacked(truths)
+        groups["truth"] = truth
         self.recorder.sample(t, groups, self.live)
 
     def _leave(self, failed: dict, block_start: int, t: float | None = None) -> None:
@@ -181,19 +148,17 @@ class Batch:
         timing = self.timing
         self.recorder.flush()
         live = self.live.tolist()
+        if t is not None:
+            steps = round(t / timing.control_period_s - block_start) * timing.steps_per_tick
+            diverged = self.group.check_state(block_start * timing.control_period_s, steps)
+            failed = {row: diverged.get(row, exc) if isinstance(exc, StageFailed) else exc
+                      for row, exc in failed.items()}
         for row, exc in sorted(failed.items()):
-            world = live[row]
-            if isinstance(exc, StageFailed) and t is not None:
-                steps = round(t / timing.control_period_s - block_start) * timing.steps_per_tick
-                try:
-                    self.plants[world].check_state(block_start * timing.control_period_s, steps)
-                except SimulationDiverged as diverged:
-                    exc = diverged
             for form in self.forms.values():
                 form.settle(row)
-            self._ended(world, exc)
+            self._ended(live[row], exc)
         kept = np.array([row for row in range(len(live)) if row not in failed], dtype=int)
-        for form in self.forms.values():
+        for form in (*self.forms.values(), self.group):
             form.keep(kept)
         for group in SIGNAL_GROUPS:
             self.outputs[group] = {key: values[kept] for key, values in self.outputs[group].items()}
