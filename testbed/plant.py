@@ -62,15 +62,17 @@ class Plant:
     def __init__(self, bus, appendage_start=()):
         """`appendage_start`: the appendages' coordinates at the start (testbed.appendages.build
         .initial_positions), when the model has panels or slosh masses."""
-        self.bus = bus  # addresses of the free bus (FreeBus) or the system's own equivalent
+        # addresses of the free bus (FreeBus) or the system's own equivalent, which declares
+        # state_views(data) (views of the bus rate and attitude, or None) and applied() (its read-back fields)
+        self.bus = bus
         self.model = bus.model
         self.data = mujoco.MjData(self.model)
         self.appendages = AppendageJoints.find(self.model, self.data)
         self.appendage_start = list(appendage_start)
         # the bus's rate and attitude as views of MuJoCo's arrays, which never move (a FreeBus):
         # each read-out copies a view, a quarter of the cost of slicing data's array anew
-        views = getattr(bus, "state_views", None)
-        self._omega_now, self._quat_now = views(self.data) if views is not None else (None, None)
+        views = bus.state_views(self.data)  # None: no one free bus (the bus says how to read it)
+        self._omega_now, self._quat_now = views if views is not None else (None, None)
         # MuJoCo resets the state (or zeroes the control) on these and carries on: we stop.
         self._bad = [(w, self.data.warning[w]) for w in (
             mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
@@ -239,10 +241,9 @@ class Plant:
                   "sim.integrator": INTEGRATOR_NAMES[int(self.model.opt.integrator)],
                   "initial.omega_rad_s": omega.tolist(), "initial.omega_deg_s": np.degrees(omega).tolist(),
                   "initial.quat": self.quat().tolist()}
-        bus_values = getattr(self.bus, "applied", None)
         if self.appendages is not None:
             values |= self.appendages.applied(self.model)
-        return values | (bus_values() if bus_values is not None else {})
+        return values | self.bus.applied()
 
     def scene(self) -> dict:
         """What the 3D view draws: the bus box half sizes (from its first box geom) [m]."""

@@ -29,6 +29,14 @@ class PairAddresses:
         self.speed_act = [int(model.actuator(f"leader_rotor{i}_speed").id) for i in (1, 2, 3)]
         self.torque_act = [int(model.actuator(f"follower_rotor{i}_torque").id) for i in (1, 2, 3)]
 
+    def state_views(self, data):
+        """None: two free bodies, no one bus whose rate and attitude `Plant` could read through views."""
+        return None
+
+    def applied(self) -> dict:
+        """No bus mass properties of the scenario's to read back (the pair's are its own)."""
+        return {}
+
 
 class GyrostatPairPlant(Plant):
     actuators = {"follower_moment_rate": (3,)}

@@ -83,6 +83,14 @@ class PlanarRig:
         self.act_adr = int(model.actuator_actadr[self.disturbance_id])
         self.inertia = float(model.body_inertia[self.body_id][2])
 
+    def state_views(self, data):
+        """None: the rig has no free bus whose rate and attitude `Plant` could read through views."""
+        return None
+
+    def applied(self) -> dict:
+        """No bus mass properties of the scenario's to read back (the rig's are the system's own)."""
+        return {}
+
     def angle(self, data) -> float:
         return float(data.qpos[self.qpos_adr])
 
