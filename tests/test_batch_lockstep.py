@@ -108,3 +108,26 @@ def test_worlds_of_different_timing_are_refused_together():
     plans = [prepare(testbed.load("lebedev_spinup_cmg", [f"sim.duration_s={d}"])) for d in (5, 6)]
     with pytest.raises(ValueError, match="share one timing"):
         Batch(plans)
+
+
+def test_each_world_writes_its_own_trace(tmp_path):
+    scenarios = [testbed.load("lebedev_spinup_cmg", ["sim.duration_s=8", f"initial.omega_deg_s=[{w}, -0.2, 0.1]"])
+                 for w in (0.1, 0.3)]
+    singles = [testbed.run(s, out=tmp_path / f"single{i}.rrd") for i, s in enumerate(scenarios)]
+    outs = [tmp_path / f"world{i}.rrd" for i in range(2)]
+    run_batch([prepare(s) for s in scenarios], outs)
+    for single, out in zip(singles, outs):
+        back, alone = testbed.read(out), testbed.read(single.rrd)
+        agree(alone, back)
+        for key in ("truth/omega", "law/torque", "allocator/gimbal_rates"):
+            assert np.array_equal(back.trace[key][1], alone.trace[key][1]), key
+
+
+def test_a_batch_stopped_by_an_exception_leaves_no_trace_behind(tmp_path):
+    scenarios = [testbed.load("lebedev_spinup_cmg", ["sim.duration_s=8"]) for _ in range(2)]
+    outs = [tmp_path / f"world{i}.rrd" for i in range(2)]
+    with pytest.raises(KeyboardInterrupt):
+        with Batch([prepare(s) for s in scenarios], outs) as batch:
+            batch.advance(10)
+            raise KeyboardInterrupt
+    assert list(tmp_path.iterdir()) == []
