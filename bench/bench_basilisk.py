@@ -22,7 +22,10 @@ uncounted pair. The testbed side is `python -c "testbed.run('cmg_open_loop', ...
 analytic reference and no checks (the reduced-model oracle is validation, not simulation) and
 no .rrd file; the Basilisk side is this file's worker, which builds and runs the spacecraft and
 records the body rate and momentum every 0.1 s (the testbed keeps its trace in memory too).
-Printed: each side's best and median wall time and the ratios (Basilisk over testbed).
+Printed: each side's best and median wall time and the ratios (Basilisk over testbed), and
+the testbed's physics floor, bare `mj_step` over the same steps (in-process time in a fresh
+process, `bare_physics`), with Basilisk's time over it: the most any per-tick work in Python
+could buy.
 
 Basilisk lives in its own venv (`--venv`, default runs/bsk-venv, made on first use with
 `pip install bsk==2.12.0`); it is never a dependency of the project.
@@ -286,6 +289,20 @@ def in_testbed(overrides) -> float:
     return time.perf_counter() - started
 
 
+def bare_physics(duration: float) -> float:
+    """The physics floor: wall time [s] of bare `mj_step` over the run's steps on the testbed's
+    model, in a fresh process (built and initialised as the run builds it; no stages)."""
+    code = ("import time, mujoco, testbed\n"
+            "from testbed.systems import registry\n"
+            f"s = testbed.load({SCENARIO!r}, {TESTBED_OVERRIDES!r})\n"
+            "p = registry.make_plant(s); p.initialise(s.initial)\n"
+            f"n = round({duration!r} / s.sim.dt_s)\n"
+            "t = time.perf_counter(); mujoco.mj_step(p.model, p.data, nstep=n); print(time.perf_counter() - t)")
+    out = subprocess.run([sys.executable, "-c", code], check=True, timeout=TIMEOUT_S, cwd=REPO,
+                         capture_output=True, text=True).stdout
+    return float(out.split()[-1])
+
+
 # ---------------------------------------------------------------- accuracy
 
 
@@ -387,22 +404,27 @@ def main() -> None:
             accuracy(python, craft, craft_file, args.accuracy or [args.bsk_dt], args.gain, duration, work)
             return
         overrides = TESTBED_OVERRIDES + [f"sim.duration_s={duration!r}"]
-        ours, theirs = [], []
-        for round_ in range(args.rounds + 1):  # the first pair warms the file caches, not counted
+        ours, theirs, floors = [], [], []
+        for round_ in range(args.rounds + 1):  # the first round warms the file caches, not counted
             a = in_testbed(overrides)
             b = in_basilisk(python, craft_file, args.bsk_dt, args.gain, duration, work / "bsk.json")
+            c = bare_physics(duration)
             if round_:
                 ours.append(a)
                 theirs.append(b)
-            print(f"round {round_}: testbed {a:.2f} s, basilisk {b:.2f} s{'' if round_ else ' (not counted)'}",
-                  flush=True)
+                floors.append(c)
+            print(f"round {round_}: testbed {a:.2f} s, basilisk {b:.2f} s, bare mj_step {c:.2f} s"
+                  f"{'' if round_ else ' (not counted)'}", flush=True)
     ratios = [b / a for a, b in zip(ours, theirs)]
+    floor_ratios = [b / c for b, c in zip(theirs, floors)]
     print(f"{SCENARIO}, {duration:g} s simulated, whole processes, {args.rounds} rounds alternated; "
           f"Basilisk {BSK_VERSION} at dt {args.bsk_dt:g} s, the testbed at the scenario's 0.01 s")
     print(f"testbed  best {min(ours):.2f} s  median {statistics.median(ours):.2f} s")
     print(f"basilisk best {min(theirs):.2f} s  median {statistics.median(theirs):.2f} s")
     print(f"speed ratio (Basilisk / testbed): best-of {min(theirs) / min(ours):.2f}x, "
           f"median of rounds {statistics.median(ratios):.2f}x")
+    print(f"bare mj_step (the testbed's physics floor) best {min(floors):.2f} s: Basilisk over it "
+          f"best-of {min(theirs) / min(floors):.2f}x, median of rounds {statistics.median(floor_ratios):.2f}x")
 
 
 if __name__ == "__main__":
