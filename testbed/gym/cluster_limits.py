@@ -60,9 +60,11 @@ class ClusterLimits:
                    least, float(np.linalg.eigvalsh(plant.locked_inertia()).max()))
 
 
-def singularity_measure(sim) -> float:
-    """sqrt(det(J J^T)) of the cluster's unit Jacobian at the gimbal angles now (0: singular)."""
-    return float(sim.plant.description().singularity_measure(sim.plant.actuator_state()["gimbal_angle"]))
+def singularity_measures(plants: list, gimbal_angles: np.ndarray) -> np.ndarray:
+    """(N,) sqrt(det(J J^T)) of each plant's cluster's unit Jacobian at its row of gimbal angles
+    (N, n) [rad] (0: singular); each world's own cluster, whose geometry a campaign may disperse."""
+    return np.array([plant.description().singularity_measure(beta) for plant, beta in zip(plants, gimbal_angles)],
+                    dtype=np.float64)
 
 
 def scaled(values, scale) -> np.ndarray:
