@@ -99,14 +99,19 @@ class SteppedBatch:
         self.ticks[rows] = 0
         self.cohorts = [cohort for cohort in self.cohorts if len(cohort.rows)] + [Cohort(rows, plans)]
 
-    def step(self, given: dict | None = None) -> None:
-        """One control period of every running world. `given`: slot -> {key: (N, ...)}, that slot's
-        output for every row this period in place of its stage's (checked by the caller: finite,
-        of the slot's shapes)."""
+    def step(self, given: dict | None = None, rows: np.ndarray | None = None) -> None:
+        """One control period of every running world (of those `rows`, (N,) bool, marks: the worlds
+        that started together are stepped together or not at all). `given`: slot -> {key: (N, ...)},
+        that slot's output for every row this period in place of its stage's (checked by the
+        caller: finite, of the slot's shapes)."""
         given = given or {}
         with one_blas_thread(), np.errstate(over="raise", invalid="raise", divide="raise"):
             for cohort in self.cohorts:
-                if len(cohort.rows):
+                marked = rows is None or rows[cohort.rows].all()
+                if rows is not None and not marked and rows[cohort.rows].any():
+                    raise ValueError(f"worlds {cohort.rows.tolist()} started together: step them together "
+                                     f"(restart the others first)")
+                if len(cohort.rows) and marked:
                     self._tick(cohort, given)
         self.cohorts = [cohort for cohort in self.cohorts if len(cohort.rows)]
 

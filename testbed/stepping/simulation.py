@@ -134,6 +134,11 @@ class Simulation:
         return self._episode().scenario
 
     @property
+    def episodes(self) -> EpisodeSource:
+        """Where the episodes' scenarios are drawn from (the scenario for a seed)."""
+        return self._episodes
+
+    @property
     def disperses(self) -> bool:
         """Whether a seed draws anything: the scenario has a `sweep.dispersions` block."""
         return self._episodes.disperses
