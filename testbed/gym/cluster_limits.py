@@ -62,9 +62,17 @@ class ClusterLimits:
 
 def singularity_measures(plants: list, gimbal_angles: np.ndarray) -> np.ndarray:
     """(N,) sqrt(det(J J^T)) of each plant's cluster's unit Jacobian at its row of gimbal angles
-    (N, n) [rad] (0: singular); each world's own cluster, whose geometry a campaign may disperse."""
-    return np.array([plant.description().singularity_measure(beta) for plant, beta in zip(plants, gimbal_angles)],
-                    dtype=np.float64)
+    (N, n) [rad] (0: singular): each world's own cluster (a campaign may disperse its geometry),
+    the worlds of one geometry in one call on their rows."""
+    descriptions = [plant.description() for plant in plants]
+    alike: dict[bytes, list[int]] = {}
+    for row, cluster in enumerate(descriptions):
+        key = cluster.gimbal_axes.tobytes() + cluster.spin_axes_zero.tobytes() + cluster.rotor_momentum.tobytes()
+        alike.setdefault(key, []).append(row)
+    measures = np.empty(len(plants))
+    for rows in alike.values():
+        measures[rows] = descriptions[rows[0]].singularity_measure(np.asarray(gimbal_angles)[rows])
+    return measures
 
 
 def scaled(values, scale) -> np.ndarray:
