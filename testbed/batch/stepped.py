@@ -72,11 +72,6 @@ class SteppedBatch:
     def plants(self) -> list:
         return [plan.plant for plan in self.plans]
 
-    @property
-    def running(self) -> np.ndarray:
-        """(N,) bool: the world has periods left and has neither diverged nor failed."""
-        return (np.array([status == "ok" for status in self.status])) & (self.ticks < self.timing.n_ticks)
-
     def restart(self, rows, plans: list[RunPlan]) -> None:
         """The worlds at `rows` start again at t = 0 from `plans` (one each, of this batch's timing),
         together as one new cohort; the other worlds go on where they are."""

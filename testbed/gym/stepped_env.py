@@ -22,6 +22,14 @@ from testbed.recording.output_paths import file_stem
 from testbed.stepping.simulation import Simulation
 
 
+def case_seed(generator: np.random.Generator, disperses: bool) -> int | None:
+    """An episode's case seed in [0, 2^32), drawn from the environment's generator (drawn whether
+    or not the scenario `disperses`, so that the generator's stream is the same either way; None
+    when nothing disperses)."""
+    seed = int(generator.integers(2**32))
+    return seed if disperses else None
+
+
 def norms(values) -> np.ndarray:
     """|v| of each row of `values` (..., k): the sum of squares along the last axis, rooted."""
     values = np.asarray(values, dtype=np.float64)
@@ -51,7 +59,7 @@ def period_results(env: "SteppedEnv", state: dict, episodes: dict, actions: np.n
     done = done & ok
     rewards = env.rewards(state, episodes, actions)
     cost = env.failure_cost_per_period
-    rewards = (rewards + np.where(done & ~failed, cost * episode_ticks, 0.0)
+    rewards = (rewards + np.where(done & ~failed, cost * episode_ticks, 0.0)  # `SteppedEnv.success_bonus`
                - np.where(failed, cost * (periods_left - 1), 0.0))
     terminated = done | failed
     return rewards, terminated, ~terminated & (ticks >= episode_ticks), done
@@ -131,14 +139,16 @@ class SteppedEnv(gymnasium.Env):
         to the scenario's."""
         return plan.timing.n_ticks
 
+    def started(self, plan) -> tuple[dict, int]:
+        """(the episode's data, its time limit in control periods) of an episode just built from `plan`."""
+        episode = self.episode_of(plan)
+        return episode, min(self.time_limit_ticks(plan, episode), plan.timing.n_ticks)
+
     # --- Gymnasium's interface -------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
-        case_seed = int(self.np_random.integers(2**32))
-        self.sim.reset(seed=case_seed if self.sim.disperses else None)
-        plan = self.sim.plan
-        self.episode = self.episode_of(plan)
-        self.episode_ticks = min(self.time_limit_ticks(plan, self.episode), self.sim.n_ticks)
+        self.sim.reset(seed=case_seed(self.np_random, self.sim.disperses))
+        self.episode, self.episode_ticks = self.started(self.sim.plan)
         return self.observation(), self._info(False)
 
     def step(self, action):

@@ -21,7 +21,7 @@ from testbed.batch.stepped import SteppedBatch
 from testbed.errors import InputError
 from testbed.gym.slew_env import CmgSlewEnv
 from testbed.gym.spin_up_env import CmgSpinUpEnv
-from testbed.gym.stepped_env import SteppedEnv, checked_actions, period_results
+from testbed.gym.stepped_env import SteppedEnv, case_seed, checked_actions, period_results
 from testbed.run_core.plan import prepare
 
 
@@ -49,8 +49,11 @@ class SteppedVectorEnv(gymnasium.vector.VectorEnv):
             raise InputError("autoreset_mode", f"must be one of {[mode.value for mode in AutoresetMode]}, "
                                                f"got {autoreset_mode!r}") from None
         self.env = self.single_env(**kwargs)
-        self.env.close()  # its Simulation's guards are lifted; the worlds' steps take them in turn
+        self.env.close()  # its Simulation's guards are lifted (the batch limits BLAS to one thread at each step)
         sim = self.env.sim
+        if sim.plan.timing.multirate:
+            raise InputError("sim.estimator_period_s", "a native vector environment steps one rate (the sensor's "
+                                                       "and the law's): use vectorization_mode='sync'")
         self._episodes, self._disperses = sim.episodes, sim.disperses
         self.num_envs = int(num_envs)
         self.metadata = {"autoreset_mode": self.autoreset_mode, "render_fps": self.env.metadata["render_fps"]}
@@ -79,6 +82,8 @@ class SteppedVectorEnv(gymnasium.vector.VectorEnv):
             mask = np.asarray(options["reset_mask"])
             if mask.shape != (n,) or mask.dtype != np.bool_ or not mask.any():
                 raise ValueError(f"options['reset_mask'] must be a bool array of shape ({n},) with a True value")
+        if self._batch is None and not mask.all():
+            raise RuntimeError("the first reset starts every world: give no reset_mask")
         rows = np.flatnonzero(mask)
         for row in rows.tolist():
             if seeds[row] is not None or self._rngs[row] is None:
@@ -93,6 +98,8 @@ class SteppedVectorEnv(gymnasium.vector.VectorEnv):
         n = self.num_envs
         actions = checked_actions(actions, self.single_action_space, (n,))
         batch = self._batch
+        if batch is None:
+            raise RuntimeError("reset() starts the worlds' episodes before the first step")
         restarted = np.flatnonzero(self._ended) if self.autoreset_mode == AutoresetMode.NEXT_STEP else np.zeros(0, int)
         if self.autoreset_mode == AutoresetMode.DISABLED and self._ended.any():
             raise RuntimeError(f"worlds {np.flatnonzero(self._ended).tolist()} ended: reset them first "
@@ -135,21 +142,18 @@ class SteppedVectorEnv(gymnasium.vector.VectorEnv):
         environment's `reset`), its plan built, and the worlds restarted together."""
         if not len(rows):
             return
-        plans = []
-        for row in rows.tolist():
-            case_seed = int(self._rngs[row].integers(2**32))
-            plans.append(prepare(self._episodes.scenario(case_seed if self._disperses else None), stepped=True))
+        plans = [prepare(self._episodes.scenario(case_seed(self._rngs[row], self._disperses)), stepped=True)
+                 for row in rows.tolist()]
         if self._batch is None or len(rows) == self.num_envs:
             self._batch = SteppedBatch(plans)
         else:
             self._batch.restart(rows, plans)
         for row, plan in zip(rows.tolist(), plans):
-            episode = self.env.episode_of(plan)
+            episode, self._episode_ticks[row] = self.env.started(plan)
             for key, value in episode.items():
                 if key not in self._episode_data:
                     self._episode_data[key] = np.zeros((self.num_envs,) + np.shape(value))
                 self._episode_data[key][row] = value
-            self._episode_ticks[row] = min(self.env.time_limit_ticks(plan, episode), plan.timing.n_ticks)
 
     def _state(self) -> tuple[dict, dict]:
         return self.env.read(self._batch.plants), self._episode_data
