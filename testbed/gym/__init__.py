@@ -13,6 +13,8 @@ Importing it registers, under Gymnasium's namespace `testbed`:
     import gymnasium, testbed.gym
     env = gymnasium.make("testbed/CmgSlew-v0", scenario="reorient_minimax")
     # or, without the import: gymnasium.make("testbed.gym:testbed/CmgSlew-v0")
+    # N worlds stepped in lockstep (testbed.gym.vector_env):
+    envs = gymnasium.make_vec("testbed/CmgSlew-v0", num_envs=64, vectorization_mode="vector_entry_point")
 """
 
 from __future__ import annotations
@@ -33,13 +35,17 @@ SHORT_SLEW = {
     "tolerance_deg": 1.0, "rate_tolerance_deg_s": 0.1, "settling_times": 6.0,
 }
 
+# id -> (entry point, native vector entry point (testbed.gym.vector_env), kwargs)
 ENVIRONMENTS = {
-    "testbed/CmgSlew-v0": ("testbed.gym.slew_env:CmgSlewEnv", {"action": "torque"}),
-    "testbed/CmgSlewGimbalRates-v0": ("testbed.gym.slew_env:CmgSlewEnv", {"action": "gimbal_rates"}),
-    "testbed/CmgSlewShort-v0": ("testbed.gym.slew_env:CmgSlewEnv", {"action": "torque", **SHORT_SLEW}),
-    "testbed/CmgSpinUp-v0": ("testbed.gym.spin_up_env:CmgSpinUpEnv", {}),
+    "testbed/CmgSlew-v0": ("testbed.gym.slew_env:CmgSlewEnv", "testbed.gym.vector_env:CmgSlewVectorEnv",
+                           {"action": "torque"}),
+    "testbed/CmgSlewGimbalRates-v0": ("testbed.gym.slew_env:CmgSlewEnv", "testbed.gym.vector_env:CmgSlewVectorEnv",
+                                      {"action": "gimbal_rates"}),
+    "testbed/CmgSlewShort-v0": ("testbed.gym.slew_env:CmgSlewEnv", "testbed.gym.vector_env:CmgSlewVectorEnv",
+                                {"action": "torque", **SHORT_SLEW}),
+    "testbed/CmgSpinUp-v0": ("testbed.gym.spin_up_env:CmgSpinUpEnv", "testbed.gym.vector_env:CmgSpinUpVectorEnv", {}),
 }
 
-for _id, (_entry_point, _kwargs) in ENVIRONMENTS.items():
+for _id, (_entry_point, _vector_entry_point, _kwargs) in ENVIRONMENTS.items():
     if _id not in gymnasium.registry:
-        gymnasium.register(id=_id, entry_point=_entry_point, kwargs=_kwargs)
+        gymnasium.register(id=_id, entry_point=_entry_point, vector_entry_point=_vector_entry_point, kwargs=_kwargs)

@@ -60,9 +60,19 @@ class ClusterLimits:
                    least, float(np.linalg.eigvalsh(plant.locked_inertia()).max()))
 
 
-def singularity_measure(sim) -> float:
-    """sqrt(det(J J^T)) of the cluster's unit Jacobian at the gimbal angles now (0: singular)."""
-    return float(sim.plant.description().singularity_measure(sim.plant.actuator_state()["gimbal_angle"]))
+def singularity_measures(plants: list, gimbal_angles: np.ndarray) -> np.ndarray:
+    """(N,) sqrt(det(J J^T)) of each plant's cluster's unit Jacobian at its row of gimbal angles
+    (N, n) [rad] (0: singular): each world's own cluster (a campaign may disperse its geometry),
+    the worlds of one geometry in one call on their rows."""
+    descriptions = [plant.description() for plant in plants]
+    alike: dict[bytes, list[int]] = {}
+    for row, cluster in enumerate(descriptions):
+        key = cluster.gimbal_axes.tobytes() + cluster.spin_axes_zero.tobytes() + cluster.rotor_momentum.tobytes()
+        alike.setdefault(key, []).append(row)
+    measures = np.empty(len(plants))
+    for rows in alike.values():
+        measures[rows] = descriptions[rows[0]].singularity_measure(np.asarray(gimbal_angles)[rows])
+    return measures
 
 
 def scaled(values, scale) -> np.ndarray:

@@ -18,9 +18,9 @@ import gymnasium
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.gym.cluster_limits import ClusterLimits, scaled, singularity_measure
-from testbed.gym.stepped_env import SteppedEnv
-from testbed.math.quaternion import quat_conj, quat_mul, rotation_vector
+from testbed.gym.cluster_limits import ClusterLimits, scaled, singularity_measures
+from testbed.gym.stepped_env import SteppedEnv, norms
+from testbed.math.quaternion import quat_conj, quat_mul, rotation_vectors
 from testbed.math.validation import positive_number
 
 # the reward's weights: attitude error, body rate, effort (each term at most 1 per component)
@@ -31,17 +31,18 @@ SETTLING_TIMES = 15.0
 
 
 def rotation_to(quat, target_quat) -> np.ndarray:
-    """e (3,): the rotation vector taking the body at `quat` to `target_quat`, body axes [rad]."""
-    return rotation_vector(quat_mul(quat_conj(quat), target_quat))
+    """e (..., 3): the rotation vector taking the body at `quat` (..., 4) to `target_quat`, body axes [rad]."""
+    return rotation_vectors(quat_mul(quat_conj(quat), target_quat))
 
 
 def attitude_observation(quat, omega, target_quat, error_scale: float, rate_scale: float) -> np.ndarray:
-    """[e / e_s with its norm held to 1 (its direction kept), omega / omega_s] (6,): e the
+    """[e / e_s with its norm held to 1 (its direction kept), omega / omega_s] (..., 6): e the
     rotation vector taking the body to the target, body axes [rad], omega the body rate
-    [rad/s]; e_s [rad] and omega_s [rad/s] the scales (`SlewScales`)."""
+    [rad/s] (quat, target_quat (..., 4), omega (..., 3)); e_s [rad] and omega_s [rad/s] the
+    scales (`SlewScales`)."""
     error = rotation_to(quat, target_quat) / error_scale
-    norm = float(np.linalg.norm(error))
-    return np.concatenate([error / max(norm, 1.0), np.asarray(omega, dtype=np.float64) / rate_scale])
+    norm = norms(error)[..., None]
+    return np.concatenate([error / np.maximum(norm, 1.0), np.asarray(omega, dtype=np.float64) / rate_scale], axis=-1)
 
 
 @dataclass(frozen=True)
@@ -120,48 +121,59 @@ class CmgSlewEnv(SteppedEnv):
         rate_bound = self.max_rate / self.scales.rate
         high = np.concatenate([np.ones(3), np.full(3, rate_bound), np.ones(2 * n + 6)])
         self.observation_space = gymnasium.spaces.Box(-high, high, dtype=np.float64)
-        self.episode_started()
+        self.episode = self.episode_of(self.sim.plan)
 
-    def episode_started(self) -> None:
-        self.target = np.asarray(self.sim.pipeline.law.statistics["target_quat"], dtype=np.float64)
+    @property
+    def target(self) -> np.ndarray:
+        """The episode's target attitude (w, x, y, z), body to world."""
+        return self.episode["target"]
 
-    def time_limit_ticks(self) -> int:
-        angle = float(np.linalg.norm(rotation_to(self.sim.plant.quat(), self.target)))
+    def episode_of(self, plan):
+        return {"target": np.asarray(plan.pipeline.law.statistics["target_quat"], dtype=np.float64)}
+
+    def time_limit_ticks(self, plan, episode):
+        angle = float(norms(rotation_to(plan.plant.quat(), episode["target"])))
         return math.ceil(self.scales.time_limit(angle, self.settling_times) / self.control_period_s)
 
-    def command(self, action):
+    def commands(self, actions):
         if self.action == "torque":
-            return {"law": {"torque": action * self.scales.torque}}
-        return {"allocator": {"gimbal_rates": action * self.limits.gimbal_rate_max}}
+            return {"law": {"torque": actions * self.scales.torque}}
+        return {"allocator": {"gimbal_rates": actions * self.limits.gimbal_rate_max}}
 
-    def observation(self):
-        plant = self.sim.plant
-        beta = np.asarray(plant.actuator_state()["gimbal_angle"], dtype=np.float64)
-        attitude = attitude_observation(plant.quat(), plant.omega(), self.target, self.scales.error, self.scales.rate)
+    def read(self, plants):
+        beta = np.array([plant.actuator_state()["gimbal_angle"] for plant in plants], dtype=np.float64)
+        return {"quat": np.array([plant.quat() for plant in plants]), "omega": np.array([plant.omega() for plant in plants]),
+                "gimbal_angle": beta,
+                "internal_momentum": np.array([plant.internal_momentum_body() for plant in plants]),
+                "singularity_measure": singularity_measures(plants, beta)}
+
+    def observations(self, state, episodes):
+        quat, target = state["quat"], episodes["target"]
+        attitude = attitude_observation(quat, state["omega"], target, self.scales.error, self.scales.rate)
+        beta = state["gimbal_angle"]
         return np.concatenate([np.clip(attitude, self.observation_space.low[:6], self.observation_space.high[:6]),
                                np.sin(beta), np.cos(beta),
-                               scaled(plant.internal_momentum_body(), self.limits.momentum_max),
-                               rotation_to(plant.quat(), self.target) / math.pi])
+                               scaled(state["internal_momentum"], self.limits.momentum_max),
+                               rotation_to(quat, target) / math.pi], axis=-1)
 
-    def _errors(self) -> tuple[float, float]:
-        """(attitude error angle [rad], body rate norm [rad/s]) now."""
-        plant = self.sim.plant
-        return float(np.linalg.norm(rotation_to(plant.quat(), self.target))), float(np.linalg.norm(plant.omega()))
+    def _errors(self, state, episodes) -> tuple[np.ndarray, np.ndarray]:
+        """(attitude error angle [rad], body rate norm [rad/s]) (N,) now."""
+        return norms(rotation_to(state["quat"], episodes["target"])), norms(state["omega"])
 
-    def reward(self, action):
-        angle, _ = self._errors()
-        rate = scaled(self.sim.plant.omega(), self.max_rate)
-        return -(ATTITUDE_WEIGHT * (angle / math.pi) ** 2 + RATE_WEIGHT * float(rate @ rate)
-                 + EFFORT_WEIGHT * float(action @ action) / action.size)
+    def rewards(self, state, episodes, actions):
+        angle, _ = self._errors(state, episodes)
+        rate = scaled(state["omega"], self.max_rate)
+        return -(ATTITUDE_WEIGHT * (angle / math.pi) ** 2 + RATE_WEIGHT * np.sum(rate * rate, axis=-1)
+                 + EFFORT_WEIGHT * np.sum(actions * actions, axis=-1) / actions.shape[-1])
 
-    def outcome(self):
-        angle, rate = self._errors()
-        failed = bool(np.any(np.abs(self.sim.plant.omega()) > self.max_rate))
+    def outcomes(self, state, episodes):
+        angle, rate = self._errors(state, episodes)
+        failed = np.any(np.abs(state["omega"]) > self.max_rate, axis=-1)
         if self.singular_measure_min is not None:
-            failed = failed or singularity_measure(self.sim) < self.singular_measure_min
-        return angle <= self.tolerance and rate <= self.rate_tolerance, failed
+            failed = failed | (state["singularity_measure"] < self.singular_measure_min)
+        return (angle <= self.tolerance) & (rate <= self.rate_tolerance), failed
 
-    def details(self):
-        angle, rate = self._errors()
-        return {"attitude_error_deg": math.degrees(angle), "rate_deg_s": math.degrees(rate),
-                "singularity_measure": singularity_measure(self.sim)}
+    def details(self, state, episodes):
+        angle, rate = self._errors(state, episodes)
+        return {"attitude_error_deg": np.degrees(angle), "rate_deg_s": np.degrees(rate),
+                "singularity_measure": state["singularity_measure"]}

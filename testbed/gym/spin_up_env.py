@@ -14,8 +14,8 @@ import gymnasium
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.gym.cluster_limits import ClusterLimits, scaled, singularity_measure
-from testbed.gym.stepped_env import SteppedEnv
+from testbed.gym.cluster_limits import ClusterLimits, scaled, singularity_measures
+from testbed.gym.stepped_env import SteppedEnv, norms
 from testbed.pipeline import stage_info
 
 EFFORT_WEIGHT = 0.01
@@ -62,23 +62,30 @@ class CmgSpinUpEnv(SteppedEnv):
         self.action_space = gymnasium.spaces.Box(-1.0, 1.0, (3,), np.float64)
         self.observation_space = gymnasium.spaces.Box(-1.0, 1.0, (1,), np.float64)
 
-    def command(self, action):
-        return {"law": {"torque": action * self.limits.torque_max}}
+    def commands(self, actions):
+        return {"law": {"torque": actions * self.limits.torque_max}}
 
-    def observation(self):
-        return scaled([self.sensing_axis @ self.sim.plant.omega()], self.max_rate)
+    def read(self, plants):
+        beta = np.array([plant.actuator_state()["gimbal_angle"] for plant in plants], dtype=np.float64)
+        return {"omega": np.array([plant.omega() for plant in plants]),
+                "singularity_measure": singularity_measures(plants, beta)}
 
-    def _spin_error(self) -> float:
-        return float(np.linalg.norm(self.sim.plant.omega() - self.spin))
+    def observations(self, state, episodes):
+        return scaled(np.sum(state["omega"] * self.sensing_axis, axis=-1, keepdims=True), self.max_rate)
 
-    def reward(self, action):
-        return -(min(self._spin_error() / self.spin[2], 1.0) ** 2 + EFFORT_WEIGHT * float(action @ action) / 3)
+    def _spin_error(self, state) -> np.ndarray:
+        """|omega - Omega e_z| (N,) [rad/s]."""
+        return norms(state["omega"] - self.spin)
 
-    def outcome(self):
-        failed = (bool(np.any(np.abs(self.sim.plant.omega()) > self.max_rate))
-                  or singularity_measure(self.sim) < self.singular_measure_min)
-        return self._spin_error() <= self.tolerance, failed
+    def rewards(self, state, episodes, actions):
+        return -(np.minimum(self._spin_error(state) / self.spin[2], 1.0) ** 2
+                 + EFFORT_WEIGHT * np.sum(actions * actions, axis=-1) / 3)
 
-    def details(self):
-        return {"spin_error_deg_s": math.degrees(self._spin_error()),
-                "singularity_measure": singularity_measure(self.sim)}
+    def outcomes(self, state, episodes):
+        failed = (np.any(np.abs(state["omega"]) > self.max_rate, axis=-1)
+                  | (state["singularity_measure"] < self.singular_measure_min))
+        return self._spin_error(state) <= self.tolerance, failed
+
+    def details(self, state, episodes):
+        return {"spin_error_deg_s": np.degrees(self._spin_error(state)),
+                "singularity_measure": state["singularity_measure"]}

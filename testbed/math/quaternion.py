@@ -72,3 +72,14 @@ def rotation_vector(q):
     if s == 0.0:
         return np.zeros(3)
     return 2.0 * np.arctan2(s, q[0]) * q[1:] / s
+
+
+def rotation_vectors(q):
+    """theta (..., 3) of unit quaternions q (..., 4), row by row as `rotation_vector` (the norms
+    summed along the last axis, so that a row's value does not depend on the rows beside it) [rad]."""
+    q = np.asarray(q, dtype=float)
+    q = np.where(q[..., :1] >= 0, q, -q)
+    s = np.sqrt(np.sum(q[..., 1:] * q[..., 1:], axis=-1, keepdims=True))
+    with np.errstate(invalid="ignore", divide="ignore"):  # s = 0 (no rotation) is taken apart below
+        theta = 2.0 * np.arctan2(s, q[..., :1]) * q[..., 1:] / s
+    return np.where(s == 0.0, 0.0, theta)

@@ -34,6 +34,16 @@ STOPPING = (SimulationDiverged, StageFailed, FloatingPointError)
 _blas_controller: ThreadpoolController | None = None
 
 
+def stopped_by(exc: BaseException, plant) -> tuple[str, str]:
+    """(status, error) of a run that `exc` (one of `STOPPING`) stopped (`RunResult.status`)."""
+    if isinstance(exc, SimulationDiverged):
+        return "diverged", str(exc)
+    if isinstance(exc, StageFailed):
+        return "method_failed" if exc.method else "error", str(exc)
+    # FloatingPointError: the plant's own read-outs overflowed, the state blew up
+    return "diverged", str(SimulationDiverged(plant.time, f"{exc} in the plant's read-outs"))
+
+
 def one_blas_thread():
     """A context in which every BLAS library of this process runs on the calling thread only
     (the libraries are listed once, at the first call: about 3 ms)."""
@@ -158,13 +168,7 @@ class RunInProgress:
 
     def stop(self, exc: BaseException) -> None:
         """End the run where `exc` (one of `STOPPING`) stopped it: its status and error line."""
-        if isinstance(exc, SimulationDiverged):
-            self.status, self.error = "diverged", str(exc)
-        elif isinstance(exc, StageFailed):
-            self.status, self.error = "method_failed" if exc.method else "error", str(exc)
-        else:  # FloatingPointError: the plant's own read-outs overflowed, the state blew up
-            self.status, self.error = "diverged", str(SimulationDiverged(self.plant.time,
-                                                                         f"{exc} in the plant's read-outs"))
+        self.status, self.error = stopped_by(exc, self.plant)
 
     def reached(self, ticks: int) -> None:
         """`ticks` control periods have run (by `advance`, or by a batch of worlds in lockstep);

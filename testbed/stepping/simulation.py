@@ -15,7 +15,6 @@ from pathlib import Path
 
 import numpy as np
 
-from testbed.campaign.cases import seeded_scenario
 from testbed.errors import InputError
 from testbed.exit_guard import os_exit_raises
 from testbed.recording.output_paths import CheckedPath, output_path
@@ -23,8 +22,8 @@ from testbed.run_core.in_progress import RunInProgress, one_blas_thread
 from testbed.run_core.plan import prepare
 from testbed.run_core.result import RunResult
 from testbed.run_core.stage_contract import SLOTS, StageFailed
-from testbed.scenario.loading import Scenario, load_mapping, parse
-from testbed.scenario.yaml_reading import as_loaded
+from testbed.scenario.loading import Scenario
+from testbed.stepping.episode_source import EpisodeSource
 from testbed.stepping.given_stages import SLOT_METHODS, GivenOutput, output_check
 
 
@@ -51,19 +50,7 @@ class Simulation:
     def __init__(self, scenario: Scenario | str | Path | dict, overrides: list[str] = (), *,
                  stages: dict | None = None, out: str | Path | None = None, keep_trace: bool = True,
                  seed: int | None = None):
-        self._mapping, self._source = None, ""
-        if isinstance(scenario, Scenario):
-            if overrides:
-                raise InputError("overrides", "a loaded Scenario is already validated: pass overrides to load()")
-            self._nominal = scenario
-        elif isinstance(scenario, dict):
-            if overrides:
-                raise InputError("overrides", "apply overrides to the mapping itself")
-            self._mapping = as_loaded(scenario)
-            self._nominal = parse(self._mapping)
-        else:
-            self._mapping, self._source = load_mapping(str(scenario), list(overrides))
-            self._nominal = parse(self._mapping, self._source)
+        self._episodes = EpisodeSource(scenario, overrides)
         if out is not None and not isinstance(out, (str, os.PathLike)):
             raise InputError("out", f"must be a file path (str or pathlib.Path) or None, got {type(out).__name__}")
         self._out = out.path if isinstance(out, CheckedPath) else output_path(out) if out is not None else None
@@ -87,15 +74,7 @@ class Simulation:
         (testbed.campaign.cases.seeded_scenario: the grid and `random:` fields keep their base
         values), else the scenario as it is. The episode before is closed first."""
         self._close_run()
-        if seed is None:
-            scenario = self._nominal
-        elif self._mapping is None:
-            raise InputError("seed", "a loaded Scenario carries no sweep block to draw from: "
-                                     "pass the scenario's name, path or mapping")
-        elif isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**32:
-            raise InputError("seed", f"must be an integer in [0, 2^32), got {seed!r}")
-        else:
-            scenario = seeded_scenario(self._mapping, self._source, int(seed))
+        scenario = self._episodes.scenario(seed)
         if self._guards is None:
             self._guards = contextlib.ExitStack()
             self._guards.enter_context(one_blas_thread())
@@ -155,10 +134,14 @@ class Simulation:
         return self._episode().scenario
 
     @property
+    def episodes(self) -> EpisodeSource:
+        """Where the episodes' scenarios are drawn from (the scenario for a seed)."""
+        return self._episodes
+
+    @property
     def disperses(self) -> bool:
         """Whether a seed draws anything: the scenario has a `sweep.dispersions` block."""
-        sweep = (self._mapping or {}).get("sweep")
-        return isinstance(sweep, dict) and bool(sweep.get("dispersions"))
+        return self._episodes.disperses
 
     @property
     def plant(self):
@@ -168,6 +151,11 @@ class Simulation:
     @property
     def pipeline(self):
         return self._episode().pipeline
+
+    @property
+    def plan(self):
+        """The episode's run plan (testbed.run_core.plan.RunPlan: plant, pipeline, timing, ...)."""
+        return self._episode().plan
 
     @property
     def time(self) -> float:
