@@ -14,6 +14,7 @@ from testbed.campaign.batches import BATCH_MEMORY_BYTES, batch_timeout_s, batche
 from testbed.campaign.cases import Case
 from testbed.campaign.orchestration import load_cases, rerun_case
 from testbed.campaign.rows import run_together
+from testbed.cli import main
 from testbed.errors import InputError
 from testbed.run_core.timing import Timing
 
@@ -94,10 +95,14 @@ def test_a_batchs_bound_is_the_sum_of_its_cases():
 
 
 @pytest.mark.parametrize("text", ["0", "-2", "1.5", "many"])
-def test_a_batch_size_that_is_not_a_whole_number_of_cases_is_refused(text):
+def test_a_batch_size_that_is_not_a_whole_number_of_cases_is_refused(text, tmp_path, capsys):
     with pytest.raises(InputError) as refused:
         checked_batch_size(text)
     assert refused.value.field == "--batch-size" and text in refused.value.reason
+    code = main(["sweep", "lebedev_spinup_campaign", f"--batch-size={text}", "--out", str(tmp_path / "out")])
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert code == 2 and err == [f"error: --batch-size: must be a whole number of cases >= 1, got '{text}'"]
+    assert not (tmp_path / "out").exists()
 
 
 def test_a_task_that_overruns_runs_as_its_parts():

@@ -136,8 +136,8 @@ def open_table(out: Path, name: str, data: dict, cases, overrides: list[str], re
 def run_into(table, done: dict, cases, engine, rrd_dir: Path | None, case_timeout_s: float | None,
              progress=None, batch_size: int | None = None) -> list[dict]:
     """Run the cases the table does not hold yet (`done`), in batches of at most `batch_size`
-    (testbed.campaign.rows.run_cases), each row into it as its batch finishes; on Ctrl-C (or any failure) the table is closed with every finished row, then the
-    stop goes on. `progress`: a context manager (a progress bar, closed before a stop is
+    (testbed.campaign.rows.run_cases), each row into it as its batch finishes; on Ctrl-C (or
+    any failure) the table is closed with every finished row, then the stop goes on. `progress`: a context manager (a progress bar, closed before a stop is
     reported) whose value is called as `advance(cases finished, of which failed)`, counting the
     rows held before."""
     from testbed.campaign.rows import run_cases

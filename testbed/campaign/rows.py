@@ -3,7 +3,8 @@
 A row is everything a case did, never an exception: `case`, the values set (a list of numbers
 as one column per component, `path[i]`), `status` (ok | diverged | method_failed | error), `passed`, `error`,
 `cause` (why it failed: its error, or the checks it failed with their values),
-`wall_s` (of a case run in a batch, its share: the batch's wall time over its cases), the case's `seed`, derived columns (a misalignment angle), the values read back from
+`wall_s` (of a case run in a batch, its share: the batch's wall time over its cases), the
+case's `seed`, derived columns (a misalignment angle), the values read back from
 the built plant and stages (`applied:path`, testbed.campaign.applied_values), every metric and every check
 (`check:NAME` pass/FAIL). A case whose read-back differs from what was set stops before its
 first step with status error.
