@@ -14,7 +14,8 @@ DIR: runs/<scenario>_sweep; testbed.campaign.table); Ctrl-C keeps them, --resume
 cases the table lacks. At the end DIR/summary/ gets summary.json and summary.rrd
 (testbed.campaign.stats, testbed.campaign.plots), and the terminal the statistics; with --rrd
 each case also writes DIR/caseNNNN.rrd. `--case N` rebuilds case N alone from the campaign
-seed, runs it in this process (bit for bit the numbers of its row) and writes
+seed, runs it alone in this process (the numbers of its row: bit for bit where every stage
+ran per world in its batch, else to the batched stages' round-off) and writes
 DIR/caseNNNN.rrd. `--set` changes the base scenario before the sweep expands (the sweep block
 too). Exit 0 when every case passed all its checks, 1 otherwise, 2 for bad input (nothing
 runs or is written), 130 on Ctrl-C.
