@@ -5,6 +5,8 @@ overruns or loses its worker runs its cases alone."""
 from __future__ import annotations
 
 import math
+import operator
+import os
 import time
 
 import pytest
@@ -105,15 +107,29 @@ def test_a_batch_size_that_is_not_a_whole_number_of_cases_is_refused(text, tmp_p
     assert not (tmp_path / "out").exists()
 
 
-def test_a_task_that_overruns_runs_as_its_parts():
-    """A task of 30 s with a bound of 1 s is given up once, then its two parts run instead (no
-    retry of it, no CaseLost): how a batch of cases that overruns runs each case alone."""
+@pytest.fixture(scope="module")
+def engine():
     from testbed.campaign.engine import Engine
 
-    with Engine(1) as engine:
-        start = time.monotonic()
-        outcomes = list(engine.results(time.sleep, [(30.0,)], lambda args: f"sleep{args[0]}",
-                                       lambda args: 1.0 if args[0] > 1 else 20.0,
-                                       lambda args: [(0.01,), (0.02,)] if args[0] > 1 else []))
-        assert time.monotonic() - start < 25
+    with Engine(1) as started:
+        yield started
+
+
+def test_a_task_that_overruns_runs_as_its_parts(engine):
+    """A task of 30 s with a bound of 1 s is given up once, then its two parts run instead (no
+    retry of it, no CaseLost): how a batch of cases that overruns runs each case alone."""
+    start = time.monotonic()
+    outcomes = list(engine.results(time.sleep, [(30.0,)], lambda args: f"sleep{args[0]}",
+                                   lambda args: 1.0 if args[0] > 1 else 20.0,
+                                   lambda args: [(0.01,), (0.02,)] if args[0] > 1 else []))
+    assert time.monotonic() - start < 25
     assert sorted(outcomes) == [((0.01,), None), ((0.02,), None)]
+
+
+def test_a_task_whose_worker_dies_runs_as_its_parts(engine):
+    """A task that ends its worker process is not retried (it would end it again): its parts
+    run on the worker started in its place, each its own result."""
+    batch = (os._exit, 3)
+    outcomes = list(engine.results(operator.call, [batch], lambda args: args[0].__name__ + str(args[1]),
+                                   split=lambda args: [(abs, -2), (math.sqrt, 16.0)] if args == batch else []))
+    assert sorted(outcomes, key=str) == [((abs, -2), 2), ((math.sqrt, 16.0), 4.0)]
