@@ -30,7 +30,7 @@ def same_row(alone: dict, batched: dict) -> None:
         other = batched[key]
         if key == "wall_s":
             continue
-        if isinstance(value, float) and not isinstance(value, bool):
+        if isinstance(value, float):
             if math.isnan(value):
                 assert math.isnan(other), key
             else:
