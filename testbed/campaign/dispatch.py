@@ -9,6 +9,8 @@ the others go back in the queue uncounted. A task stranded on a worker that is g
 scheduler's own retries) counts as a death. A task out past its timeout is given up: on the
 local cluster its worker process is ended (its nanny starts another), on an external one that
 thread is given nothing more. Cases no worker can take become CaseLost rather than wait forever.
+A task that `split` divides (a batch of cases) is not retried after a death or an overrun: its
+parts go first in the queue instead, each with its own retries and bound.
 """
 
 from __future__ import annotations
@@ -40,13 +42,16 @@ class CaseDispatch:
     """fn(*args) for every argument tuple of `tasks` on `client`'s cluster (`local`: one this
     command started, whose workers it may end); `name(args)` names a case uniquely,
     `timeout_s(args)` bounds its try (None: no bound); `no_worker_s`: how long a cluster may have
-    no worker before the cases left are lost. `outcomes()` yields (args, result or CaseLost)."""
+    no worker before the cases left are lost; `split(args)`: the parts a task runs as after a
+    death or an overrun ([]: it is retried itself). `outcomes()` yields (args, result or CaseLost)."""
 
     def __init__(self, client, local: bool, fn: Callable, tasks: Iterable[tuple], name: Callable[[tuple], str],
-                 timeout_s: Callable[[tuple], float | None], no_worker_s: float):
+                 timeout_s: Callable[[tuple], float | None], no_worker_s: float,
+                 split: Callable[[tuple], list[tuple]] = lambda args: []):
         from distributed import as_completed
 
         self.client, self.local, self.fn, self.name, self.timeout_s = client, local, fn, name, timeout_s
+        self.split = split
         self.no_worker_s = no_worker_s
         self.batch = uuid.uuid4().hex[:8]  # keys stay unique on a scheduler shared by several campaigns
         self.pending = collections.deque(tasks)  # a case handed out again goes first
@@ -108,12 +113,21 @@ class CaseDispatch:
         return args, address
 
     def _died(self, args) -> Iterator[tuple[tuple, CaseLost]]:
-        """A worker died running this case: handed out again RETRIES times, then a CaseLost."""
+        """A worker died running this case: handed out again RETRIES times, then a CaseLost (a
+        task `split` divides: its parts, uncounted)."""
+        if self._divided(args):
+            return
         count = self.deaths[self.name(args)] = self.deaths.get(self.name(args), 0) + 1
         if count > RETRIES:
             yield args, CaseLost(f"the worker process died running it, {count} times")
         else:
             self.pending.appendleft(args)
+
+    def _divided(self, args) -> bool:
+        """Whether `split` divides the task: then its parts go first in the queue."""
+        parts = self.split(args)
+        self.pending.extendleft(reversed(parts))
+        return bool(parts)
 
     def _take(self, future, outcome) -> Iterator[tuple[tuple, Any]]:
         """A task that finished: its result, or, for one its worker's death ended, a retry or a
@@ -185,6 +199,8 @@ class CaseDispatch:
                 self.client.run(_end_worker_process, workers=[address], wait=False)
             else:
                 self.stuck[address] += 1
+            if self._divided(args):
+                continue
             count = self.overruns[self.name(args)] = self.overruns.get(self.name(args), 0) + 1
             if count <= RETRIES:
                 self.pending.appendleft(args)

@@ -135,9 +135,11 @@ class Engine:
         return len(self.client.scheduler_info(n_workers=-1)["workers"])
 
     def results(self, fn: Callable, tasks: Iterable[tuple], name: Callable[[tuple], str] = str,
-                timeout_s: Callable[[tuple], float | None] = lambda args: None) -> Iterator[tuple[tuple, Any]]:
+                timeout_s: Callable[[tuple], float | None] = lambda args: None,
+                split: Callable[[tuple], list[tuple]] = lambda args: []) -> Iterator[tuple[tuple, Any]]:
         """(args, fn(*args) or CaseLost) for every argument tuple in `tasks`, in the order they
         finish; name(args) names the task (uniquely) on the scheduler; a try may last
-        timeout_s(args) (testbed.campaign.dispatch)."""
+        timeout_s(args); a task that split(args) divides runs as those parts instead of a retry
+        (testbed.campaign.dispatch)."""
         return CaseDispatch(self.client, self.cluster is not None, fn, tasks, name, timeout_s,
-                            NO_WORKER_S).outcomes()
+                            NO_WORKER_S, split).outcomes()

@@ -30,9 +30,11 @@ def load_campaign(name: str, overrides: list[str]):
 def build_and_read_back(scenario, values: dict) -> dict:
     """Plan a case as its run will (testbed.run_core.plan.prepare) and check that every value set
     reaches the built plant and stages (testbed.campaign.applied_values.NotApplied otherwise); returns what
-    its row will hold: the read-back values, the names of its metrics and of its checks; and how
-    long it may run (testbed.campaign.case_timeout)."""
+    its row will hold: the read-back values, the names of its metrics and of its checks; how
+    long it may run (testbed.campaign.case_timeout); and what batches it (testbed.campaign.batches):
+    its timing and the memory of its world."""
     from testbed.metrics import available
+    from testbed.campaign.batches import world_bytes
     from testbed.campaign.case_timeout import case_timeout_s
     from testbed.campaign.applied_values import applied_values, check_applied
     from testbed.run_core.plan import prepare
@@ -41,6 +43,7 @@ def build_and_read_back(scenario, values: dict) -> dict:
     applied = applied_values(values, scenario, plan.plant, plan.pipeline.stages())
     check_applied(values, applied)
     return {"applied": applied, "metrics": available(scenario), "timeout_s": case_timeout_s(scenario),
+            "timing": plan.timing, "world_bytes": world_bytes(plan),
             "checks": {name: {"max": limit.max, "min": limit.min} for name, limit in scenario.checks.items()}}
 
 
@@ -131,10 +134,10 @@ def open_table(out: Path, name: str, data: dict, cases, overrides: list[str], re
 
 
 def run_into(table, done: dict, cases, engine, rrd_dir: Path | None, case_timeout_s: float | None,
-             progress=None) -> list[dict]:
-    """Run the cases the table does not hold yet (`done`), each row into it as its case
-    finishes; on Ctrl-C (or any failure) the table is closed with every finished row, then the
-    stop goes on. `progress`: a context manager (a progress bar, closed before a stop is
+             progress=None, batch_size: int | None = None) -> list[dict]:
+    """Run the cases the table does not hold yet (`done`), in batches of at most `batch_size`
+    (testbed.campaign.rows.run_cases), each row into it as its batch finishes; on Ctrl-C (or
+    any failure) the table is closed with every finished row, then the stop goes on. `progress`: a context manager (a progress bar, closed before a stop is
     reported) whose value is called as `advance(cases finished, of which failed)`, counting the
     rows held before."""
     from testbed.campaign.rows import run_cases
@@ -146,6 +149,7 @@ def run_into(table, done: dict, cases, engine, rrd_dir: Path | None, case_timeou
             if advance is not None:
                 advance(len(done), failed_before)
             run_cases(todo, rrd_dir=rrd_dir, on_row=table.append, engine=engine, case_timeout_s=case_timeout_s,
+                      batch_size=batch_size,
                       progress=None if advance is None else
                       lambda count, total, failed: advance(len(done) + count, failed_before + failed))
         return table.close()

@@ -2,18 +2,20 @@
 parallel, into a table; or rerun one case alone.
 
     testbed sweep SCENARIO [--workers N | --scheduler tcp://HOST:PORT] [--out DIR] [--resume]
-                           [--case-timeout SECONDS] [--rrd] [--set KEY.PATH=VALUE] [--json]
+                           [--case-timeout SECONDS] [--batch-size N] [--rrd] [--set KEY.PATH=VALUE] [--json]
     testbed sweep SCENARIO --case N [--out DIR] [--set ...] [--json]
 
 Every case is validated and built (and what it would run with read back, testbed.campaign.applied_values)
 before the first one runs. The cases run on Dask (testbed.campaign.engine): a local cluster of
 --workers processes started inside the command, or the cluster whose scheduler is at
---scheduler. Each row goes to DIR/<scenario>.csv and .parquet as its case finishes (default
+--scheduler, in batches of cases stepped in lockstep (testbed.campaign.batches; --batch-size 1:
+each case alone). Each row goes to DIR/<scenario>.csv and .parquet as its case finishes (default
 DIR: runs/<scenario>_sweep; testbed.campaign.table); Ctrl-C keeps them, --resume runs only the
 cases the table lacks. At the end DIR/summary/ gets summary.json and summary.rrd
 (testbed.campaign.stats, testbed.campaign.plots), and the terminal the statistics; with --rrd
 each case also writes DIR/caseNNNN.rrd. `--case N` rebuilds case N alone from the campaign
-seed, runs it in this process (bit for bit the numbers of its row) and writes
+seed, runs it alone in this process (the numbers of its row: bit for bit where every stage
+ran per world in its batch, else to the batched stages' round-off) and writes
 DIR/caseNNNN.rrd. `--set` changes the base scenario before the sweep expands (the sweep block
 too). Exit 0 when every case passed all its checks, 1 otherwise, 2 for bad input (nothing
 runs or is written), 130 on Ctrl-C.
@@ -45,6 +47,9 @@ def add_parser(subparsers) -> None:
     p.add_argument("--case-timeout", metavar="SECONDS", default=None,
                    help="give up on a case that runs longer (twice: an error row); default from the "
                         "scenario: 60 s + 1 ms per physics step")
+    p.add_argument("--batch-size", metavar="N", default=None,
+                   help="at most N cases stepped together in one task (default: as many as fit "
+                        "512 MiB, spread over the workers; 1: each case alone)")
     p.add_argument("--out", help="output directory (default runs/<scenario>_sweep)")
     p.add_argument("--rrd", action="store_true", help="also write one .rrd per case")
     p.add_argument("--case", type=int, default=None, metavar="N",
@@ -73,12 +78,14 @@ def output_folder(args, name: str) -> Path:
 
 
 def run(args) -> int:
+    from testbed.campaign.batches import checked_batch_size
     from testbed.campaign.case_timeout import checked_case_timeout
     from testbed.campaign.engine import Engine
     from testbed.campaign.orchestration import (check_case_traces, load_plugins_in_workers, open_table, run_into,
                                                 summarise)
 
     case_timeout = checked_case_timeout(args.case_timeout) if args.case_timeout is not None else None
+    batch_size = checked_batch_size(args.batch_size) if args.batch_size is not None else None
     engine = Engine(args.workers, args.scheduler)  # checks --workers; started below
     if args.case is not None:
         return _rerun_case(args)
@@ -97,7 +104,7 @@ def run(args) -> int:
                 print(f"note: --workers {args.workers} for {len(cases)} cases: started {len(cases)}", file=sys.stderr)
             table.start()
             rows = run_into(table, done, cases, engine, out if args.rrd else None, case_timeout,
-                            _cases_bar(table.csv_path.stem, len(cases), args.json))
+                            _cases_bar(table.csv_path.stem, len(cases), args.json), batch_size)
         lines = summarise(name, data, rows, cases, out, args.scenario, args.set)
 
     def report():
