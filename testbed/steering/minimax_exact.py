@@ -37,7 +37,7 @@ from testbed.errors import InputError
 from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
 from testbed.steering.minimax_dual import dual_minimax_rates
 from testbed.steering.minimax_lp import nullspace_lp_rates
-from testbed.steering.result import SteeringResult, limited_result, status_string
+from testbed.steering.result import SteeringResult, SteeringRows, limited_result, limited_rows, status_code, status_string
 from testbed.math.validation import number_in
 from testbed.steering.validation import checked_problem, checked_rate_bounds
 
@@ -68,11 +68,17 @@ def minimax_line_parameter(x, n) -> float:
     for i, j in _PAIRS:
         wi, wj = w[i], w[j]
         if wi > floor and wj > floor:
-            den = wi + wj
-            v = abs(wj * a[i] - wi * a[j]) / den
+            v, t = pair_crossing(wi, wj, a[i], a[j])
             if v > best_v:
-                best_v, best_t = v, -(a[i] + a[j]) / den
+                best_v, best_t = v, t
     return best_t
+
+
+def pair_crossing(wi, wj, ai, aj):
+    """(v_ij, t_ij) of the module doc: where the rising line of one gimbal of a pair meets the
+    falling line of the other (w: |n|, a: sign(n) x); floats, or arrays elementwise."""
+    den = wi + wj
+    return abs(wj * ai - wi * aj) / den, -(ai + aj) / den
 
 
 def priced_line_parameter(x, n, price: float) -> float:
@@ -124,15 +130,20 @@ def particular_solution(rows, b, n) -> list[float]:
     abs_n = [abs(v) for v in n]
     k = abs_n.index(max(abs_n))
     cols = [i for i in (0, 1, 2, 3) if i != k]
-    y0, y1, y2 = ([rows[0][i], rows[1][i], rows[2][i]] for i in cols)
+    x = [0.0, 0.0, 0.0, 0.0]
+    for i, value in zip(cols, adjugate_solution(*([rows[0][i], rows[1][i], rows[2][i]] for i in cols), b)):
+        x[i] = value
+    return x
+
+
+def adjugate_solution(y0, y1, y2, b) -> tuple:
+    """Y^-1 b for Y = [y0 y1 y2] (columns, 3 each): [y1 x y2, y2 x y0, y0 x y1]^T b / det Y (eq. 22);
+    floats, or arrays elementwise (a row per world)."""
     c12 = (y1[1] * y2[2] - y1[2] * y2[1], y1[2] * y2[0] - y1[0] * y2[2], y1[0] * y2[1] - y1[1] * y2[0])
     c20 = (y2[1] * y0[2] - y2[2] * y0[1], y2[2] * y0[0] - y2[0] * y0[2], y2[0] * y0[1] - y2[1] * y0[0])
     c01 = (y0[1] * y1[2] - y0[2] * y1[1], y0[2] * y1[0] - y0[0] * y1[2], y0[0] * y1[1] - y0[1] * y1[0])
     inv_det = 1.0 / (y0[0] * c12[0] + y0[1] * c12[1] + y0[2] * c12[2])
-    x = [0.0, 0.0, 0.0, 0.0]
-    for i, cross in zip(cols, (c12, c20, c01)):
-        x[i] = (b[0] * cross[0] + b[1] * cross[1] + b[2] * cross[2]) * inv_det
-    return x
+    return tuple((b[0] * cross[0] + b[1] * cross[1] + b[2] * cross[2]) * inv_det for cross in (c12, c20, c01))
 
 
 def minimax_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND, null_motion_price: float = 0.0,
@@ -208,3 +219,56 @@ def _other_count(rows, h, hdot, beta_rate_max, rcond, rate_bounds) -> SteeringRe
         beta = p if lp_failed else lp
     bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max, len(rows[0]))
     return limited_result(J, h, beta, beta_rate_max, svd.measure, svd.rank, lp_failed, bounds=bounds)
+
+
+# --- many worlds at once: the same formulas on a row per world (testbed.batch) -------------------
+_OTHER_COLUMNS = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])
+
+
+def minimax_steering_rows(J, h, hdot, beta_rate_max, *, rcond: float, null_motion_price: float) -> SteeringRows:
+    """`minimax_steering` of N worlds' 4-unit problems, a row each: J (N, 3, 4), h (N,) [N m s],
+    hdot (N, 3) [N m], beta_rate_max (N,) [rad/s]; finite inputs and the options already checked
+    (the stage checks them once). The closed form runs on all rows together, its one branch
+    (the pair of gimbals whose lines cross highest) chosen by masks; a row where the cofactor
+    formulas lose accuracy (|n| <= NEAR_SINGULAR |J|_F^3, the SVD and LP branch) or a priced null
+    motion (null_motion_price > 0) takes `minimax_steering` itself. Row i is world i's result to
+    the last bit where numpy's elementwise arithmetic is Python's."""
+    count = len(J)
+    b = hdot / h[:, None]
+    rows = np.ascontiguousarray(np.moveaxis(J, 0, -1))  # (3, 4, N): rows[r][c] a row per world
+    n = cofactor_null_vector(rows)
+    measure = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3])
+    fro2 = sum(v * v for v in rows[0]) + sum(v * v for v in rows[1]) + sum(v * v for v in rows[2])
+    closed = measure > NEAR_SINGULAR * fro2 * np.sqrt(fro2)
+    null = np.array(n)  # (4, N)
+    # particular solution (particular_solution): x_k = 0 at k = argmax |n_k|, the others Y^-1 b
+    others = _OTHER_COLUMNS[np.argmax(np.abs(null), axis=0)]  # (N, 3)
+    Y = np.take_along_axis(J, others[:, None, :], axis=2)  # (N, 3, 3), columns the kept units'
+    solved = adjugate_solution(*([Y[:, 0, c], Y[:, 1, c], Y[:, 2, c]] for c in range(3)), b.T)
+    x = np.zeros((4, count))
+    np.put_along_axis(x, others.T, np.array(solved), axis=0)
+    beta = (x + minimax_line_parameter_rows(x, null) * null).T
+    result = limited_rows(J, h, beta, beta_rate_max, measure, np.full(count, 3))
+    for row in np.flatnonzero(~closed if null_motion_price == 0.0 else np.ones(count, bool)).tolist():
+        single = minimax_steering(J[row], h[row], hdot[row], beta_rate_max[row], rcond=rcond,
+                                  null_motion_price=null_motion_price)
+        result.beta_rate[row], result.hdot_delivered[row] = single.beta_rate, single.hdot_delivered
+        result.scale[row], result.singularity_measure[row] = single.scale, single.singularity_measure
+        result.rank[row], result.status[row] = single.rank, status_code(single.status)
+    return result
+
+
+def minimax_line_parameter_rows(x, n):
+    """`minimax_line_parameter` of N lines at once: x, n (4, N) -> t (N,); the pair that crosses
+    highest picked by masks, in the order the single form visits them (the same t on a tie)."""
+    w = np.abs(n)
+    a = np.where(n >= 0.0, x, -x)
+    k = np.argmax(w, axis=0)
+    columns = np.arange(w.shape[1])
+    floor = ZERO_SLOPE * w[k, columns]
+    best_v, best_t = np.full(w.shape[1], -1.0), -a[k, columns] / w[k, columns]
+    for i, j in _PAIRS:
+        v, t = pair_crossing(w[i], w[j], a[i], a[j])
+        better = (w[i] > floor) & (w[j] > floor) & (v > best_v)
+        best_v, best_t = np.where(better, v, best_v), np.where(better, t, best_t)
+    return best_t

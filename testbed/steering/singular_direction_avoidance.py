@@ -18,21 +18,29 @@ import math
 import numpy as np
 
 from testbed.math.validation import number_in
-from testbed.steering.least_squares import DEFAULT_RCOND
-from testbed.steering.result import SteeringResult, limited_result
+from testbed.steering.least_squares import DEFAULT_RCOND, numerical_rank
+from testbed.steering.result import SteeringResult, SteeringRows, limited_result, limited_rows
 from testbed.steering.validation import checked_problem, checked_rate_bounds
 
 
 def sda_gains(s: np.ndarray, lambda0: float, mu: float, rcond: float) -> np.ndarray:
     """The inverse singular values of SDA: 1/s_k for k < 3 (0 at or below rcond s_1), and
-    s_3 / (s_3^2 + lambda0 exp(-mu s_3^2)) for the smallest (Ford & Hall 2000)."""
+    s_3 / (s_3^2 + lambda0 exp(-mu s_3^2)) for the smallest (Ford & Hall 2000); s (3,), or (N, 3)
+    a row per world."""
     gains = np.zeros_like(s)
-    kept = s[:-1] > rcond * s[0]
-    gains[:-1][kept] = 1.0 / s[:-1][kept]
-    last = s[-1]
-    damping = lambda0 * math.exp(-mu * last * last)
-    gains[-1] = last / (last * last + damping) if last * last + damping > 0 else 0.0
+    np.divide(1.0, s[..., :-1], out=gains[..., :-1], where=s[..., :-1] > rcond * s[..., :1])
+    last = s[..., -1]
+    denominator = last * last + lambda0 * np.exp(-mu * last * last)
+    np.divide(last, denominator, out=gains[..., -1], where=denominator > 0)
     return gains
+
+
+def sda_rates(J, b, lambda0: float, mu: float, rcond: float) -> tuple[np.ndarray, np.ndarray]:
+    """(beta' = V diag(sda_gains) U^T b, singular values of J): J (3, n), b (3,); or a stack of
+    worlds, J (N, 3, n), b (N, 3)."""
+    u, s, vt = np.linalg.svd(J, full_matrices=False)
+    along = (b[..., None, :] @ u)[..., 0, :] * sda_gains(s, lambda0, mu, rcond)
+    return (along[..., None, :] @ vt)[..., 0, :], s
 
 
 def sda_steering(J, h, Hdot, beta_rate_max, *, lambda0: float = 0.01, mu: float = 10.0,
@@ -47,7 +55,13 @@ def sda_steering(J, h, Hdot, beta_rate_max, *, lambda0: float = 0.01, mu: float 
     rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
     bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max, len(rows[0]))
     J = np.array(rows)
-    u, s, vt = np.linalg.svd(J, full_matrices=False)
-    beta_rate = vt.T @ (sda_gains(s, lambda0, mu, rcond) * (u.T @ (np.array(hdot) / h)))
-    rank = int(np.count_nonzero(s > rcond * s[0])) if s[0] > 0 else 0
-    return limited_result(J, h, beta_rate, beta_rate_max, float(np.prod(s)), rank, bounds=bounds)
+    beta_rate, s = sda_rates(J, np.array(hdot) / h, lambda0, mu, rcond)
+    return limited_result(J, h, beta_rate, beta_rate_max, float(np.prod(s)), int(numerical_rank(s, rcond)),
+                          bounds=bounds)
+
+
+def sda_steering_rows(J, h, hdot, beta_rate_max, *, lambda0: float, mu: float, rcond: float) -> SteeringRows:
+    """`sda_steering` of N worlds, a row each: J (N, 3, n), h (N,) [N m s], hdot (N, 3) [N m],
+    beta_rate_max (N,) [rad/s]; finite inputs and options already checked (testbed.batch)."""
+    beta_rate, s = sda_rates(J, hdot / h[:, None], lambda0, mu, rcond)
+    return limited_rows(J, h, beta_rate, beta_rate_max, np.prod(s, axis=-1), numerical_rank(s, rcond))

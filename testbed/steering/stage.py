@@ -62,6 +62,7 @@ from testbed.math.cross import cross3
 from testbed.pipeline import stage
 from testbed.scenario.schema import join, param
 from testbed.steering import FOUR_UNIT_LAWS, LAW_OPTIONS, STEERING_LAWS, STEP_INPUTS
+from testbed.steering.batched_stage import ROW_LAWS, batched_form
 from testbed.steering.fault_isolation import FaultIsolation
 from testbed.steering.gimbal_limits import GimbalLimits
 from testbed.steering.result import status_code
@@ -305,8 +306,10 @@ class SteeringAllocator:
 
 
 def _register(name: str) -> None:
-    cls = type(f"{name}_steering", (SteeringAllocator,), {"law_name": name, "__doc__": STEERING_LAWS[name].__doc__,
-                                                          "four_units_only": FOUR_UNIT_LAWS.get(name, "")})
+    attributes = {"law_name": name, "__doc__": STEERING_LAWS[name].__doc__, "four_units_only": FOUR_UNIT_LAWS.get(name, "")}
+    if name in ROW_LAWS:  # its form on many worlds (testbed.batch): this class's allocate, a row per world
+        attributes["batched"] = classmethod(lambda cls, stages: batched_form(stages))
+    cls = type(f"{name}_steering", (SteeringAllocator,), attributes)
     stage("allocator", name, SteeringParams)(cls)
 
 
