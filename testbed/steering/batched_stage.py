@@ -17,6 +17,7 @@ import numpy as np
 
 from testbed.batch.stage_forms import WorldsFailed, rows_of
 from testbed.errors import described
+from testbed.math.cross import cross3
 from testbed.run_core.stage_contract import Declared, MethodFailed, StageFailed
 from testbed.steering.minimax_exact import minimax_steering_rows
 from testbed.steering.off_diagonal_sr import osr_steering_rows
@@ -109,7 +110,7 @@ class BatchedSteering:
             jacobian = np.swapaxes(cos * self.turn - sin * self.spin_zero, 1, 2) * self.column_scale[:, None, :]
             spun = self.spin_inertia * np.asarray(actuators["rotor_rate"], dtype=float)
             momentum = (spun[:, None, :] @ spin)[:, 0, :]
-            gyroscopic = np.where(self.adds_gyroscopic[:, None], np.cross(omega, momentum), 0.0)
+            gyroscopic = np.where(self.adds_gyroscopic[:, None], cross3(omega, momentum), 0.0)
             hdot = -(torque + gyroscopic)
             finite = np.isfinite(hdot).all(axis=1) & np.isfinite(jacobian).all(axis=(1, 2))
             command = np.zeros((count, jacobian.shape[2]))

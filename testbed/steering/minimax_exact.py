@@ -223,6 +223,7 @@ def _other_count(rows, h, hdot, beta_rate_max, rcond, rate_bounds) -> SteeringRe
 
 # --- many worlds at once: the same formulas on a row per world (testbed.batch) -------------------
 _OTHER_COLUMNS = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])
+_PAIR_FIRST, _PAIR_SECOND = np.array(_PAIRS).T
 
 
 def minimax_steering_rows(J, h, hdot, beta_rate_max, *, rcond: float, null_motion_price: float) -> SteeringRows:
@@ -259,16 +260,16 @@ def minimax_steering_rows(J, h, hdot, beta_rate_max, *, rcond: float, null_motio
 
 
 def minimax_line_parameter_rows(x, n):
-    """`minimax_line_parameter` of N lines at once: x, n (4, N) -> t (N,); the pair that crosses
-    highest picked by masks, in the order the single form visits them (the same t on a tie)."""
+    """`minimax_line_parameter` of N lines at once: x, n (4, N) -> t (N,); the 6 pairs' crossings
+    (6, N) at once, the highest taken by argmax, which like the single form's scan keeps the first
+    pair of a tie (so the same t)."""
     w = np.abs(n)
     a = np.where(n >= 0.0, x, -x)
     k = np.argmax(w, axis=0)
     columns = np.arange(w.shape[1])
     floor = ZERO_SLOPE * w[k, columns]
-    best_v, best_t = np.full(w.shape[1], -1.0), -a[k, columns] / w[k, columns]
-    for i, j in _PAIRS:
-        v, t = pair_crossing(w[i], w[j], a[i], a[j])
-        better = (w[i] > floor) & (w[j] > floor) & (v > best_v)
-        best_v, best_t = np.where(better, v, best_v), np.where(better, t, best_t)
-    return best_t
+    wi, wj = w[_PAIR_FIRST], w[_PAIR_SECOND]
+    v, t = pair_crossing(wi, wj, a[_PAIR_FIRST], a[_PAIR_SECOND])
+    v = np.where((wi > floor) & (wj > floor), v, -1.0)  # a pair with a flat line has no crossing
+    best = np.argmax(v, axis=0)
+    return np.where(v[best, columns] > -1.0, t[best, columns], -a[k, columns] / w[k, columns])
