@@ -22,6 +22,7 @@ from testbed.run_core.stage_contract import Declared, MethodFailed, StageFailed
 from testbed.steering.minimax_exact import minimax_steering_rows
 from testbed.steering.off_diagonal_sr import osr_steering_rows
 from testbed.steering.pseudo_inverse import pinv_steering_rows
+from testbed.steering.result import SteeringRows
 from testbed.steering.singular_direction_avoidance import sda_steering_rows
 from testbed.steering.singularity_type import NOT_SINGULAR
 from testbed.steering.sr_inverse import gsr_steering_rows, sr_steering_rows
@@ -112,36 +113,44 @@ class BatchedSteering:
             momentum = (spun[:, None, :] @ spin)[:, 0, :]
             gyroscopic = np.where(self.adds_gyroscopic[:, None], cross3(omega, momentum), 0.0)
             hdot = -(torque + gyroscopic)
-            finite = np.isfinite(hdot).all(axis=1) & np.isfinite(jacobian).all(axis=(1, 2))
-            command = np.zeros((count, jacobian.shape[2]))
-            delivered, scale = np.zeros((count, 3)), np.ones(count)
-            measure, rank, status = np.zeros(count), np.zeros(count), np.zeros(count)
-            live = slice(None) if finite.all() else np.flatnonzero(finite)
-            if np.any(finite):
-                result = self.law_rows(jacobian[live], self.h[live], hdot[live], self.rate_max[live],
-                                       **self.options, **({"t": t} if self.takes_time else {}))
-                command[live], delivered[live], scale[live] = result.beta_rate, result.hdot_delivered, result.scale
-                measure[live], rank[live], status[live] = result.singularity_measure, result.rank, result.status
-                self._count(live, result)
+            # the single law's check (validation.checked_problem): a sum is finite only if every term is
+            finite = np.isfinite(hdot.sum(axis=1) + jacobian.sum(axis=(1, 2)))
+            everyone = bool(finite.all())
+            live = slice(None) if everyone else np.flatnonzero(finite)
+            keywords = self.options | {"t": t} if self.takes_time else self.options
+            if everyone:
+                result = self.law_rows(jacobian, self.h, hdot, self.rate_max, **keywords)
+            else:  # the others' rows; the failed worlds' stay at rest (their own stages name the failure)
+                result = SteeringRows(np.zeros((count, jacobian.shape[2])), np.zeros((count, 3)), np.ones(count),
+                                      np.zeros(count), np.zeros(count, int), np.zeros(count, int))
+                if len(live):
+                    some = self.law_rows(jacobian[live], self.h[live], hdot[live], self.rate_max[live], **keywords)
+                    for name in SteeringRows.__slots__:
+                        getattr(result, name)[live] = getattr(some, name)
+            self._count(live, result, everyone)
             held = momentum
             if "gimbal_rate" in actuators:  # ClusterGeometry.turning_momentum
                 turning = self.turning_inertia * np.asarray(actuators["gimbal_rate"], dtype=float)
                 held = momentum + (turning[:, None, :] @ self.gimbal_axes)[:, 0, :]
-            outputs = {"gimbal_rates": command, "torque_delivered": -delivered - gyroscopic, "momentum": momentum,
-                       "held_momentum": held, "scale": scale[:, None], "singularity": measure[:, None],
-                       "rank": rank[:, None], "status": status[:, None],
+            measure = result.singularity_measure
+            outputs = {"gimbal_rates": result.beta_rate, "torque_delivered": -result.hdot_delivered - gyroscopic,
+                       "momentum": momentum, "held_momentum": held, "scale": result.scale[:, None],
+                       "singularity": measure[:, None], "rank": result.rank[:, None].astype(float),
+                       "status": result.status[:, None].astype(float),
                        "singularity_type": np.full((count, 1), float(NOT_SINGULAR)),
                        "singular_direction": np.zeros((count, 3))}
             for row in np.flatnonzero(finite & (measure < self.classify_below)).tolist():
                 outputs["singularity_type"][row], outputs["singular_direction"][row] = self.stages[row]._classified(
                     measure[row], jacobian[row], beta[row], momentum[row])
-        if not finite.all():
+        if not everyone:
             raise WorldsFailed(self._failures(t, np.flatnonzero(~finite), demand, estimate, actuators), outputs)
         return outputs
 
-    def _count(self, live, result) -> None:
-        """`SteeringAllocator._count` of the rows `live` (without gimbal limits)."""
+    def _count(self, live, result, everyone: bool) -> None:
+        """`SteeringAllocator._count` of the rows `live` (all when `everyone`; without gimbal limits)."""
         s = self.statistics
+        if not everyone:
+            result = SteeringRows(*(getattr(result, name)[live] for name in SteeringRows.__slots__))
         rates = np.abs(result.beta_rate)
         s["peak_gimbal_rate"][live] = np.maximum(s["peak_gimbal_rate"][live], rates.max(axis=1))
         s["rate_limit_violations"][live] += np.count_nonzero(rates > self.rate_max[live][:, None], axis=1)

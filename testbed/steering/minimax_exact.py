@@ -236,18 +236,19 @@ def minimax_steering_rows(J, h, hdot, beta_rate_max, *, rcond: float, null_motio
     the last bit where numpy's elementwise arithmetic is Python's."""
     count = len(J)
     b = hdot / h[:, None]
-    rows = np.ascontiguousarray(np.moveaxis(J, 0, -1))  # (3, 4, N): rows[r][c] a row per world
+    rows = np.ascontiguousarray(J.transpose(1, 2, 0))  # (3, 4, N): rows[r][c] a row per world
     n = cofactor_null_vector(rows)
     measure = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3])
     fro2 = sum(v * v for v in rows[0]) + sum(v * v for v in rows[1]) + sum(v * v for v in rows[2])
     closed = measure > NEAR_SINGULAR * fro2 * np.sqrt(fro2)
     null = np.array(n)  # (4, N)
     # particular solution (particular_solution): x_k = 0 at k = argmax |n_k|, the others Y^-1 b
-    others = _OTHER_COLUMNS[np.argmax(np.abs(null), axis=0)]  # (N, 3)
-    Y = np.take_along_axis(J, others[:, None, :], axis=2)  # (N, 3, 3), columns the kept units'
-    solved = adjugate_solution(*([Y[:, 0, c], Y[:, 1, c], Y[:, 2, c]] for c in range(3)), b.T)
+    others = _OTHER_COLUMNS[np.argmax(np.abs(null), axis=0)].T  # (3, N): the kept units
+    worlds = np.arange(count)
+    Y = rows[:, others, worlds]  # (3, 3, N): Y[r, c] row r of the kept unit c
+    solved = adjugate_solution(Y[:, 0], Y[:, 1], Y[:, 2], b.T)
     x = np.zeros((4, count))
-    np.put_along_axis(x, others.T, np.array(solved), axis=0)
+    x[others, worlds] = solved
     beta = (x + minimax_line_parameter_rows(x, null) * null).T
     result = limited_rows(J, h, beta, beta_rate_max, measure, np.full(count, 3))
     for row in np.flatnonzero(~closed if null_motion_price == 0.0 else np.ones(count, bool)).tolist():
