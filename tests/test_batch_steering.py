@@ -44,9 +44,19 @@ def scenario(angles, law: str, duration: float = 20.0, extra=()):
                                              f"pipeline.allocator.type={law}", *extra])
 
 
-def allocators(law: str):
+def limits(i: int, angles) -> list[str]:
+    """World i's gimbal limits: none for world 0; else an acceleration limit (100 + 50 i deg/s^2, so
+    u = a Tc binds at 10 deg/s) and travel stops a few degrees from gimbals 1 and 3's start."""
+    if i == 0:
+        return []
+    stops = [[angles[0] - 2.0 * i, angles[0] + 3.0], None, [angles[2] - 4.0, angles[2] + 1.5 * i], None]
+    return [f"pipeline.allocator.gimbal_acceleration_max_deg_s2={100 + 50 * i}",
+            "pipeline.allocator.gimbal_angle_limits_deg=" + str(stops).replace("None", "null")]
+
+
+def allocators(law: str, limited: bool = False):
     """Two sets of each world's allocator stage: one for the form, one to run alone."""
-    scenarios = [scenario(angles, law) for angles in ANGLES]
+    scenarios = [scenario(angles, law, extra=limits(i, angles) if limited else ()) for i, angles in enumerate(ANGLES)]
     batched = [prepare(s).pipeline for s in scenarios]
     single = [prepare(s).pipeline.stages()["allocator"] for s in scenarios]
     return forms_of(batched)["allocator"], [p.stages()["allocator"] for p in batched], single
@@ -68,9 +78,11 @@ def condition(jacobian: np.ndarray, rcond: float) -> float:
     return float(s[0] / max(s[-1], rcond * s[0]))
 
 
-@pytest.mark.parametrize("law", sorted(ROW_LAWS))
-def test_each_row_is_its_world_own_stage_tick_by_tick(law):
-    form, form_stages, stages = allocators(law)
+@pytest.mark.parametrize("law, limited", [(law, False) for law in sorted(ROW_LAWS)] + [("minimax", True), ("sr", True)])
+def test_each_row_is_its_world_own_stage_tick_by_tick(law, limited):
+    """limited: the worlds but the first have gimbal limits of their own (the bounds, the set-points
+    and the limits' counts per world)."""
+    form, form_stages, stages = allocators(law, limited)
     assert isinstance(form, BatchedSteering)
     count, rng = len(stages), np.random.default_rng(41)
     beta = np.radians(np.array(ANGLES))
@@ -112,6 +124,10 @@ def test_each_row_is_its_world_own_stage_tick_by_tick(law):
         for name, value in alone.statistics.items():
             assert batched.statistics[name] == pytest.approx(value, rel=1e-9, abs=1e-13), name
         assert batched.statistics["steps"] == TICKS
+        if limited and row:  # the limits bound the commands (counted as the single stage counts them)
+            assert np.allclose(batched.setpoint, alone.setpoint, rtol=0, atol=1e-12)
+            assert alone.statistics["acceleration_violations"] == alone.statistics["angle_limit_violations"] == 0
+            assert alone.statistics["peak_gimbal_acceleration"] <= np.radians(100 + 50 * row) * (1 + 1e-9)
 
 
 def test_a_world_with_a_bad_demand_fails_alone_as_its_stage_would():
@@ -153,11 +169,10 @@ def test_whole_runs_in_a_batch_are_each_world_run_alone(law):
 
 @pytest.mark.parametrize("extra", [["pipeline.allocator.type=minimax_lp"],
                                    ["pipeline.allocator.fault_detection=true"],
-                                   ["pipeline.allocator.gimbal_acceleration_max_deg_s2=20"],
                                    ["pipeline.allocator.options={null_motion_price: 0.0, rcond: 0.02}"]])
 def test_which_worlds_run_per_world(extra):
-    """An LP per world, fault isolation and gimbal limits keep their state in the single stage: per
-    world. Options that differ from world to world too (the form takes one set of options)."""
+    """An LP per world and fault isolation's state machine stay in the single stage: per world.
+    Options that differ from world to world too (the form takes one set of options)."""
     plans = [prepare(scenario(ANGLES[0], "minimax", extra=extra)), prepare(scenario(ANGLES[1], "minimax"))]
     form = forms_of([p.pipeline for p in plans])["allocator"]
     assert isinstance(form, PerWorld)

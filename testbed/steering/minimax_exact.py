@@ -226,10 +226,11 @@ _OTHER_COLUMNS = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])
 _PAIR_FIRST, _PAIR_SECOND = np.array(_PAIRS).T
 
 
-def minimax_steering_rows(J, h, hdot, beta_rate_max, *, rcond: float, null_motion_price: float) -> SteeringRows:
+def minimax_steering_rows(J, h, hdot, beta_rate_max, *, rcond: float, null_motion_price: float,
+                          rate_bounds=None) -> SteeringRows:
     """`minimax_steering` of N worlds' 4-unit problems, a row each: J (N, 3, 4), h (N,) [N m s],
-    hdot (N, 3) [N m], beta_rate_max (N,) [rad/s]; finite inputs and the options already checked
-    (the stage checks them once). The closed form runs on all rows together, its one branch
+    hdot (N, 3) [N m], beta_rate_max (N,) [rad/s], rate_bounds None or (lo, hi) (N, 4) each; finite
+    inputs and the options already checked (the stage checks them once). The closed form runs on all rows together, its one branch
     (the pair of gimbals whose lines cross highest) chosen by masks; a row where the cofactor
     formulas lose accuracy (|n| <= NEAR_SINGULAR |J|_F^3, the SVD and LP branch) or a priced null
     motion (null_motion_price > 0) takes `minimax_steering` itself. Row i is world i's result to
@@ -250,10 +251,11 @@ def minimax_steering_rows(J, h, hdot, beta_rate_max, *, rcond: float, null_motio
     x = np.zeros((4, count))
     x[others, worlds] = solved
     beta = (x + minimax_line_parameter_rows(x, null) * null).T
-    result = limited_rows(J, h, beta, beta_rate_max, measure, np.full(count, 3))
+    result = limited_rows(J, h, beta, beta_rate_max, measure, np.full(count, 3), rate_bounds)
     for row in np.flatnonzero(~closed if null_motion_price == 0.0 else np.ones(count, bool)).tolist():
         single = minimax_steering(J[row], h[row], hdot[row], beta_rate_max[row], rcond=rcond,
-                                  null_motion_price=null_motion_price)
+                                  null_motion_price=null_motion_price,
+                                  rate_bounds=None if rate_bounds is None else [bound[row] for bound in rate_bounds])
         result.beta_rate[row], result.hdot_delivered[row] = single.beta_rate, single.hdot_delivered
         result.scale[row], result.singularity_measure[row] = single.scale, single.singularity_measure
         result.rank[row], result.status[row] = single.rank, status_code(single.status)

@@ -68,11 +68,12 @@ def osr_steering(J, h, Hdot, beta_rate_max, *, t: float = 0.0, lambda0: float = 
 
 
 def osr_steering_rows(J, h, hdot, beta_rate_max, *, t: float, lambda0: float, mu: float, epsilon0: float,
-                      omega: float, weight: float, rcond: float) -> SteeringRows:
+                      omega: float, weight: float, rcond: float, rate_bounds=None) -> SteeringRows:
     """`osr_steering` of N worlds at time t [s], a row each: J (N, 3, n), h (N,) [N m s], hdot (N, 3)
-    [N m], beta_rate_max (N,) [rad/s]; finite inputs and options already checked (testbed.batch)."""
+    [N m], beta_rate_max (N,) [rad/s], rate_bounds None or (lo, hi) (N, n) each; finite inputs and
+    options already checked (testbed.batch)."""
     s = np.linalg.svd(J, compute_uv=False)
     measure = np.prod(s, axis=-1)
     beta_rate = off_diagonal_rates(J, hdot / h[:, None], wie_damping(measure ** 2, lambda0, mu), weight,
                                    wie_dither_matrix(t, epsilon0, omega, PHASES))
-    return limited_rows(J, h, beta_rate, beta_rate_max, measure, numerical_rank(s, rcond))
+    return limited_rows(J, h, beta_rate, beta_rate_max, measure, numerical_rank(s, rcond), rate_bounds)

@@ -58,3 +58,16 @@ def apply_rate_bounds(beta_rate: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> 
         return beta_rate, 1.0
     k += 0.0  # -0.0 (an end of the box at p itself) reads as 0
     return np.clip(p + k * step, lo, hi), k
+
+
+def apply_rate_bounds_rows(beta_rate: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`apply_rate_bounds` on many worlds' rates, a row each: beta_rate, lo, hi (N, n) [rad/s] ->
+    (the bounded rates (N, n), k (N,)), each row as `apply_rate_bounds` gives it."""
+    p = np.clip(0.0, lo, hi)
+    step = beta_rate - p
+    over, under = beta_rate > hi, beta_rate < lo
+    ratio = np.where(over, (hi - p) / np.where(over, step, 1.0),
+                     np.where(under, (lo - p) / np.where(under, step, 1.0), 1.0))
+    k = np.minimum(ratio.min(axis=-1), 1.0) + 0.0  # -0.0 (an end of the box at p itself) reads as 0
+    limited = (k < 1.0)[:, None]
+    return np.where(limited, np.clip(p + k[:, None] * step, lo, hi), beta_rate), k

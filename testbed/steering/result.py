@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from testbed.steering.rate_limit import apply_rate_bounds, apply_rate_limit, apply_rate_limit_rows
+from testbed.steering.rate_limit import apply_rate_bounds, apply_rate_bounds_rows, apply_rate_limit, apply_rate_limit_rows
 
 # Status flags (joined with "+" when several apply).
 OK = "ok"
@@ -84,10 +84,14 @@ def limited_result(J, h, beta_rate, beta_rate_max, measure, rank, lp_failed=Fals
                           status_string(k < 1.0, rank < 3, lp_failed))
 
 
-def limited_rows(J, h, beta_rate, beta_rate_max, measure, rank) -> SteeringRows:
-    """`limited_result` (symmetric limit) on N worlds' rows: J (N, 3, n), h (N,) [N m s],
-    beta_rate (N, n) [rad/s], beta_rate_max (N,) [rad/s], measure and rank (N,)."""
-    beta_rate, k = apply_rate_limit_rows(beta_rate, beta_rate_max)
+def limited_rows(J, h, beta_rate, beta_rate_max, measure, rank, bounds=None) -> SteeringRows:
+    """`limited_result` on N worlds' rows: J (N, 3, n), h (N,) [N m s], beta_rate (N, n) [rad/s],
+    beta_rate_max (N,) [rad/s], measure and rank (N,); bounds: optional (lo, hi) (N, n) each,
+    within +-beta_rate_max (they replace the symmetric limit, as in `limited_result`)."""
+    if bounds is None:
+        beta_rate, k = apply_rate_limit_rows(beta_rate, beta_rate_max)
+    else:
+        beta_rate, k = apply_rate_bounds_rows(beta_rate, *bounds)
     delivered = h[:, None] * (J @ beta_rate[:, :, None])[:, :, 0]
     status = STATUS_CODES[RATE_LIMITED] * (k < 1.0) + STATUS_CODES[RANK_DEFICIENT] * (rank < 3)
     return SteeringRows(beta_rate, delivered, k, measure, rank, status)

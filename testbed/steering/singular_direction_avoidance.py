@@ -60,8 +60,10 @@ def sda_steering(J, h, Hdot, beta_rate_max, *, lambda0: float = 0.01, mu: float 
                           bounds=bounds)
 
 
-def sda_steering_rows(J, h, hdot, beta_rate_max, *, lambda0: float, mu: float, rcond: float) -> SteeringRows:
+def sda_steering_rows(J, h, hdot, beta_rate_max, *, lambda0: float, mu: float, rcond: float,
+                      rate_bounds=None) -> SteeringRows:
     """`sda_steering` of N worlds, a row each: J (N, 3, n), h (N,) [N m s], hdot (N, 3) [N m],
-    beta_rate_max (N,) [rad/s]; finite inputs and options already checked (testbed.batch)."""
+    beta_rate_max (N,) [rad/s], rate_bounds None or (lo, hi) (N, n) each; finite inputs and
+    options already checked (testbed.batch)."""
     beta_rate, s = sda_rates(J, hdot / h[:, None], lambda0, mu, rcond)
-    return limited_rows(J, h, beta_rate, beta_rate_max, np.prod(s, axis=-1), numerical_rank(s, rcond))
+    return limited_rows(J, h, beta_rate, beta_rate_max, np.prod(s, axis=-1), numerical_rank(s, rcond), rate_bounds)

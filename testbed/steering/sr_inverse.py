@@ -117,9 +117,11 @@ def gsr_steering(J, h, Hdot, beta_rate_max, *, t: float = 0.0, lambda0: float = 
     return limited_result(J, h, beta_rate, beta_rate_max, svd.measure, svd.rank, bounds=bounds)
 
 
-def sr_steering_rows(J, h, hdot, beta_rate_max, *, lambda0: float, m0: float, rcond: float) -> SteeringRows:
+def sr_steering_rows(J, h, hdot, beta_rate_max, *, lambda0: float, m0: float, rcond: float,
+                     rate_bounds=None) -> SteeringRows:
     """`sr_steering` of N worlds, a row each: J (N, 3, n), h (N,) [N m s], hdot (N, 3) [N m],
-    beta_rate_max (N,) [rad/s]; finite inputs and options already checked (testbed.batch)."""
+    beta_rate_max (N,) [rad/s], rate_bounds None or (lo, hi) (N, n) each; finite inputs and
+    options already checked (testbed.batch)."""
     b = hdot / h[:, None]
     u, s, vt = np.linalg.svd(J, full_matrices=True)
     measure = np.prod(s, axis=-1)
@@ -128,14 +130,14 @@ def sr_steering_rows(J, h, hdot, beta_rate_max, *, lambda0: float, m0: float, rc
     damped = damping > 0  # only those: an undamped singular J J^T has no inverse
     if damped.any():
         beta_rate[damped] = damped_rates(J[damped], b[damped], damping[damped], np.eye(3))
-    return limited_rows(J, h, beta_rate, beta_rate_max, measure, rank)
+    return limited_rows(J, h, beta_rate, beta_rate_max, measure, rank, rate_bounds)
 
 
 def gsr_steering_rows(J, h, hdot, beta_rate_max, *, t: float, lambda0: float, mu: float, epsilon0: float,
-                      omega: float, phases, rcond: float) -> SteeringRows:
+                      omega: float, phases, rcond: float, rate_bounds=None) -> SteeringRows:
     """`gsr_steering` of N worlds at time t [s], a row each (as `sr_steering_rows`)."""
     s = np.linalg.svd(J, compute_uv=False)
     measure = np.prod(s, axis=-1)
     beta_rate = damped_rates(J, hdot / h[:, None], wie_damping(measure ** 2, lambda0, mu),
                              wie_dither_matrix(t, epsilon0, omega, phases))
-    return limited_rows(J, h, beta_rate, beta_rate_max, measure, numerical_rank(s, rcond))
+    return limited_rows(J, h, beta_rate, beta_rate_max, measure, numerical_rank(s, rcond), rate_bounds)
