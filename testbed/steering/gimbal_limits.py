@@ -25,6 +25,7 @@ turning (testbed.steering.rate_limit.apply_rate_bounds handles both cases).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,16 +34,31 @@ import numpy as np
 ACCELERATION_ROUNDING = 1e-9  # relative slack of a count of rate changes over u for the bounds' rounding
 
 
-def stopping_rate(distance, rate_step, period):
+def braking_rate(distance, rate_step, period, sqrt=math.sqrt, floor=math.floor):
+    """r_stop(d) of eq. (1) [rad/s] for 0 < d and u finite: floats, or arrays elementwise with
+    sqrt, floor = np.sqrt, np.floor."""
+    k = floor((sqrt(1.0 + 8.0 * distance / (period * rate_step)) - 1.0) / 2.0)
+    return distance / (period * (k + 1)) + rate_step * k / 2.0
+
+
+def stopping_rate(distance: float, rate_step: float, period: float) -> float:
     """r_stop(d) of eq. (1) [rad/s]: distance d [rad] to the stop, rate_step u = a_max Tc [rad/s]
-    (math.inf: no acceleration limit), period Tc [s]; 0 for d <= 0, infinite for d infinite.
-    A float for floats; elementwise for arrays (gimbals, or a row per world), which broadcast."""
-    d, u = np.asarray(distance, dtype=float), np.asarray(rate_step, dtype=float)
-    with np.errstate(all="ignore"):  # the branches not taken (d <= 0, d or u infinite) are dropped below
-        k = np.floor((np.sqrt(1.0 + 8.0 * d / (period * u)) - 1.0) / 2.0)
-        braking = d / (period * (k + 1)) + u * k / 2.0
-        rate = np.where(d <= 0.0, 0.0, np.where(np.isinf(d), np.inf, np.where(np.isinf(u), d / period, braking)))
-    return float(rate) if rate.ndim == 0 else rate
+    (math.inf: no acceleration limit), period Tc [s]; 0 for d <= 0, infinite for d infinite."""
+    if distance <= 0.0:
+        return 0.0
+    if math.isinf(distance):
+        return math.inf
+    if math.isinf(rate_step):
+        return distance / period
+    return braking_rate(distance, rate_step, period)
+
+
+def stopping_rates(distance: np.ndarray, rate_step: np.ndarray, period: np.ndarray) -> np.ndarray:
+    """`stopping_rate` elementwise on arrays that broadcast (a row per world)."""
+    with np.errstate(all="ignore"):  # the cases of the branches below computed and dropped
+        braking = braking_rate(distance, rate_step, period, np.sqrt, np.floor)
+        free = np.where(np.isinf(rate_step), distance / period, braking)
+    return np.where(distance <= 0.0, 0.0, np.where(np.isinf(distance), np.inf, free))
 
 
 @dataclass(frozen=True)
@@ -64,10 +80,14 @@ class GimbalLimits:
     def rate_bounds(self, setpoint, previous_rate, rate_max: float) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) (4,) [rad/s] for the next command, from the commanded angles `setpoint` [rad]
         and the previous command [rad/s] (module doc). lo <= hi always (rounding is folded in).
-        Of many worlds: setpoint and previous_rate (N, 4), rate_max (N, 1)."""
+        Of many worlds (limits of rows): setpoint and previous_rate (N, 4), rate_max (N, 1)."""
         u, tc = self.rate_step, self.period
-        up = stopping_rate(self.angle_max - setpoint, u, tc)
-        down = stopping_rate(setpoint - self.angle_min, u, tc)
+        if np.ndim(setpoint) == 1:  # one world: a float loop costs less than numpy's calls on 4 numbers
+            up = np.array([stopping_rate(d, u, tc) for d in self.angle_max - setpoint])
+            down = np.array([stopping_rate(d, u, tc) for d in setpoint - self.angle_min])
+        else:
+            up = stopping_rates(self.angle_max - setpoint, u, tc)
+            down = stopping_rates(setpoint - self.angle_min, u, tc)
         hi = np.minimum(np.minimum(rate_max, previous_rate + u), up)
         lo = np.maximum(np.maximum(-rate_max, previous_rate - u), -down)
         return np.minimum(lo, hi), hi
