@@ -34,12 +34,15 @@ class JacobianSVD:
 def jacobian_svd(J: np.ndarray, rcond: float = DEFAULT_RCOND) -> JacobianSVD:
     """SVD of J with rank = number of singular values > rcond * sigma_max."""
     u, s, vt = np.linalg.svd(J, full_matrices=True)
-    rank = int(numerical_rank(s, rcond))
+    rank = numerical_rank(s, rcond)
     return JacobianSVD(u[:, :rank], s[:rank], vt[:rank], vt[rank:], rank, float(np.prod(s)))
 
 
 def numerical_rank(s: np.ndarray, rcond: float):
-    """How many singular values s (..., k), descending, exceed rcond * s_max (0 when s_max = 0)."""
+    """How many singular values s (k,), descending, exceed rcond * s_max (0 when s_max = 0): an int;
+    of many worlds' s (N, k), an array (N,)."""
+    if s.ndim == 1:  # one world: numpy's reductions along an axis cost more than these two calls
+        return int(np.count_nonzero(s > rcond * s[0])) if s[0] > 0 else 0
     first = s[..., :1]
     return np.count_nonzero((s > rcond * first) & (first > 0), axis=-1)
 

@@ -37,7 +37,8 @@ from testbed.errors import InputError
 from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
 from testbed.steering.minimax_dual import dual_minimax_rates
 from testbed.steering.minimax_lp import nullspace_lp_rates
-from testbed.steering.result import SteeringResult, SteeringRows, limited_result, limited_rows, status_code, status_string
+from testbed.steering.result import (SteeringResult, SteeringRows, limited_result, limited_rows, status_code,
+                                     status_string)
 from testbed.math.validation import number_in
 from testbed.steering.validation import checked_problem, checked_rate_bounds
 
@@ -230,9 +231,9 @@ def minimax_steering_rows(J, h, hdot, beta_rate_max, *, rcond: float, null_motio
                           rate_bounds=None) -> SteeringRows:
     """`minimax_steering` of N worlds' 4-unit problems, a row each: J (N, 3, 4), h (N,) [N m s],
     hdot (N, 3) [N m], beta_rate_max (N,) [rad/s], rate_bounds None or (lo, hi) (N, 4) each; finite
-    inputs and the options already checked (the stage checks them once). The closed form runs on all rows together, its one branch
-    (the pair of gimbals whose lines cross highest) chosen by masks; a row where the cofactor
-    formulas lose accuracy (|n| <= NEAR_SINGULAR |J|_F^3, the SVD and LP branch) or a priced null
+    inputs and the options already checked (the stage checks them once). The closed form runs on
+    all rows together, its one branch (the pair of gimbals whose lines cross highest) chosen by
+    argmax; a row where the cofactor formulas lose accuracy (|n| <= NEAR_SINGULAR |J|_F^3, the SVD and LP branch) or a priced null
     motion (null_motion_price > 0) takes `minimax_steering` itself. Row i is world i's result to
     the last bit where numpy's elementwise arithmetic is Python's."""
     count = len(J)

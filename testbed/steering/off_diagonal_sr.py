@@ -74,6 +74,6 @@ def osr_steering_rows(J, h, hdot, beta_rate_max, *, t: float, lambda0: float, mu
     options already checked (testbed.batch)."""
     s = np.linalg.svd(J, compute_uv=False)
     measure = np.prod(s, axis=-1)
-    beta_rate = off_diagonal_rates(J, hdot / h[:, None], wie_damping(measure ** 2, lambda0, mu), weight,
+    beta_rate = off_diagonal_rates(J, hdot / h[:, None], wie_damping(measure ** 2, lambda0, mu, np.exp), weight,
                                    wie_dither_matrix(t, epsilon0, omega, PHASES))
     return limited_rows(J, h, beta_rate, beta_rate_max, measure, numerical_rank(s, rcond), rate_bounds)

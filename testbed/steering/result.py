@@ -6,7 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from testbed.steering.rate_limit import apply_rate_bounds, apply_rate_bounds_rows, apply_rate_limit, apply_rate_limit_rows
+from testbed.steering.rate_limit import (apply_rate_bounds, apply_rate_bounds_rows, apply_rate_limit,
+                                         apply_rate_limit_rows)
 
 # Status flags (joined with "+" when several apply).
 OK = "ok"

@@ -25,22 +25,29 @@ from testbed.steering.validation import checked_problem, checked_rate_bounds
 
 def sda_gains(s: np.ndarray, lambda0: float, mu: float, rcond: float) -> np.ndarray:
     """The inverse singular values of SDA: 1/s_k for k < 3 (0 at or below rcond s_1), and
-    s_3 / (s_3^2 + lambda0 exp(-mu s_3^2)) for the smallest (Ford & Hall 2000); s (3,), or (N, 3)
-    a row per world."""
+    s_3 / (s_3^2 + lambda0 exp(-mu s_3^2)) for the smallest (Ford & Hall 2000); s (3,)."""
     gains = np.zeros_like(s)
-    np.divide(1.0, s[..., :-1], out=gains[..., :-1], where=s[..., :-1] > rcond * s[..., :1])
-    last = s[..., -1]
-    denominator = last * last + lambda0 * np.exp(-mu * last * last)
-    np.divide(last, denominator, out=gains[..., -1], where=denominator > 0)
+    kept = s[:-1] > rcond * s[0]
+    gains[:-1][kept] = 1.0 / s[:-1][kept]
+    last = s[-1]
+    denominator = damped_square(last, lambda0, mu, math.exp)
+    gains[-1] = last / denominator if denominator > 0 else 0.0
     return gains
 
 
-def sda_rates(J, b, lambda0: float, mu: float, rcond: float) -> tuple[np.ndarray, np.ndarray]:
-    """(beta' = V diag(sda_gains) U^T b, singular values of J): J (3, n), b (3,); or a stack of
-    worlds, J (N, 3, n), b (N, 3)."""
-    u, s, vt = np.linalg.svd(J, full_matrices=False)
-    along = (b[..., None, :] @ u)[..., 0, :] * sda_gains(s, lambda0, mu, rcond)
-    return (along[..., None, :] @ vt)[..., 0, :], s
+def sda_gains_rows(s: np.ndarray, lambda0: float, mu: float, rcond: float) -> np.ndarray:
+    """`sda_gains` of N worlds' singular values s (N, 3), a row each."""
+    gains = np.zeros_like(s)
+    np.divide(1.0, s[:, :-1], out=gains[:, :-1], where=s[:, :-1] > rcond * s[:, :1])
+    denominator = damped_square(s[:, -1], lambda0, mu, np.exp)
+    np.divide(s[:, -1], denominator, out=gains[:, -1], where=denominator > 0)
+    return gains
+
+
+def damped_square(last, lambda0: float, mu: float, exp):
+    """s_3^2 + lambda0 exp(-mu s_3^2): the damped square of the smallest singular value (Ford & Hall
+    2000, scheduled as Wie's); a float with exp = math.exp, an array with np.exp."""
+    return last * last + lambda0 * exp(-mu * last * last)
 
 
 def sda_steering(J, h, Hdot, beta_rate_max, *, lambda0: float = 0.01, mu: float = 10.0,
@@ -55,9 +62,9 @@ def sda_steering(J, h, Hdot, beta_rate_max, *, lambda0: float = 0.01, mu: float 
     rcond = number_in("steering.rcond", rcond, 0.0, 1.0, low_open=True, high_open=True)
     bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max, len(rows[0]))
     J = np.array(rows)
-    beta_rate, s = sda_rates(J, np.array(hdot) / h, lambda0, mu, rcond)
-    return limited_result(J, h, beta_rate, beta_rate_max, float(np.prod(s)), int(numerical_rank(s, rcond)),
-                          bounds=bounds)
+    u, s, vt = np.linalg.svd(J, full_matrices=False)
+    beta_rate = vt.T @ (sda_gains(s, lambda0, mu, rcond) * (u.T @ (np.array(hdot) / h)))
+    return limited_result(J, h, beta_rate, beta_rate_max, float(np.prod(s)), numerical_rank(s, rcond), bounds=bounds)
 
 
 def sda_steering_rows(J, h, hdot, beta_rate_max, *, lambda0: float, mu: float, rcond: float,
@@ -65,5 +72,9 @@ def sda_steering_rows(J, h, hdot, beta_rate_max, *, lambda0: float, mu: float, r
     """`sda_steering` of N worlds, a row each: J (N, 3, n), h (N,) [N m s], hdot (N, 3) [N m],
     beta_rate_max (N,) [rad/s], rate_bounds None or (lo, hi) (N, n) each; finite inputs and
     options already checked (testbed.batch)."""
-    beta_rate, s = sda_rates(J, hdot / h[:, None], lambda0, mu, rcond)
-    return limited_rows(J, h, beta_rate, beta_rate_max, np.prod(s, axis=-1), numerical_rank(s, rcond), rate_bounds)
+    u, s, vt = np.linalg.svd(J, full_matrices=False)
+    b = hdot / h[:, None]
+    along = (b[:, None, :] @ u)[:, 0, :] * sda_gains_rows(s, lambda0, mu, rcond)
+    beta_rate = (along[:, None, :] @ vt)[:, 0, :]
+    return limited_rows(J, h, beta_rate, beta_rate_max, np.prod(s, axis=-1), numerical_rank(s, rcond),
+                        rate_bounds)

@@ -22,22 +22,23 @@ import math
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_rows, min_norm_solution, numerical_rank
+from testbed.steering.least_squares import (DEFAULT_RCOND, jacobian_svd, min_norm_rows, min_norm_solution,
+                                            numerical_rank)
 from testbed.steering.result import SteeringResult, SteeringRows, limited_result, limited_rows
 from testbed.math.validation import number_in, positive_number
 from testbed.steering.validation import checked_problem, checked_rate_bounds
 
 
-def nakamura_damping(m, lambda0: float, m0: float):
-    """Nakamura-Hanafusa damping lambda0 (1 - m/m0)^2 below the threshold m0, else 0 (m: a float,
-    or an array of one per world)."""
-    return np.where(m < m0, lambda0 * (1.0 - m / m0) ** 2, 0.0)
+def nakamura_damping(m, lambda0: float, m0: float, minimum=min):
+    """Nakamura-Hanafusa damping lambda0 (1 - m/m0)^2 below the threshold m0, else 0 (the square
+    vanishes at m = m0); m a float, or an array of one per world with minimum = np.minimum."""
+    return lambda0 * (1.0 - minimum(m, m0) / m0) ** 2
 
 
-def wie_damping(det_jjt, lambda0: float, mu: float):
+def wie_damping(det_jjt, lambda0: float, mu: float, exp=math.exp):
     """Wie's GSR damping lambda0 exp(-mu det(J J^T)) (never zero, largest at a singularity);
-    det_jjt a float, or an array of one per world."""
-    return lambda0 * np.exp(-mu * det_jjt)
+    det_jjt a float, or an array of one per world with exp = np.exp."""
+    return lambda0 * exp(-mu * det_jjt)
 
 
 def wie_dither_matrix(t: float, epsilon0: float, omega: float, phases) -> np.ndarray:
@@ -126,7 +127,7 @@ def sr_steering_rows(J, h, hdot, beta_rate_max, *, lambda0: float, m0: float, rc
     u, s, vt = np.linalg.svd(J, full_matrices=True)
     measure = np.prod(s, axis=-1)
     beta_rate, rank = min_norm_rows(u, s, vt, b, rcond)
-    damping = nakamura_damping(measure, lambda0, m0)
+    damping = nakamura_damping(measure, lambda0, m0, np.minimum)
     damped = damping > 0  # only those: an undamped singular J J^T has no inverse
     if damped.any():
         beta_rate[damped] = damped_rates(J[damped], b[damped], damping[damped], np.eye(3))
@@ -138,6 +139,6 @@ def gsr_steering_rows(J, h, hdot, beta_rate_max, *, t: float, lambda0: float, mu
     """`gsr_steering` of N worlds at time t [s], a row each (as `sr_steering_rows`)."""
     s = np.linalg.svd(J, compute_uv=False)
     measure = np.prod(s, axis=-1)
-    beta_rate = damped_rates(J, hdot / h[:, None], wie_damping(measure ** 2, lambda0, mu),
+    beta_rate = damped_rates(J, hdot / h[:, None], wie_damping(measure ** 2, lambda0, mu, np.exp),
                              wie_dither_matrix(t, epsilon0, omega, phases))
     return limited_rows(J, h, beta_rate, beta_rate_max, measure, numerical_rank(s, rcond), rate_bounds)

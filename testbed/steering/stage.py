@@ -305,7 +305,8 @@ class SteeringAllocator:
 
 
 def _register(name: str) -> None:
-    attributes = {"law_name": name, "__doc__": STEERING_LAWS[name].__doc__, "four_units_only": FOUR_UNIT_LAWS.get(name, "")}
+    attributes = {"law_name": name, "__doc__": STEERING_LAWS[name].__doc__,
+                  "four_units_only": FOUR_UNIT_LAWS.get(name, "")}
     if name in ROW_LAWS:  # its form on many worlds (testbed.batch): this class's allocate, a row per world
         attributes["batched"] = classmethod(lambda cls, stages: batched_form(stages))
     cls = type(f"{name}_steering", (SteeringAllocator,), attributes)
