@@ -32,6 +32,8 @@ PHASES = (0.0, math.pi / 2, math.pi)
 def off_diagonal_weights(damping, weight: float, gimbals: int) -> np.ndarray:
     """W of Wie 2005 eq. (26): `weight` on the diagonal, the damping lambda everywhere else;
     (gimbals, gimbals), or (N, gimbals, gimbals) for a damping (N,) of one per world."""
+    if np.ndim(damping) == 0:  # one world: one fill costs less than the broadcast below
+        return np.full((gimbals, gimbals), damping) + (weight - damping) * np.eye(gimbals)
     damping = np.asarray(damping)[..., None, None]
     return damping * np.ones((gimbals, gimbals)) + (weight - damping) * np.eye(gimbals)
 
@@ -40,6 +42,8 @@ def off_diagonal_rates(J, b, damping, weight: float, E: np.ndarray) -> np.ndarra
     """beta' = W J^T (J W J^T + lambda E)^-1 b (eq. 25): J (3, n), b (3,), damping a float; or a
     stack of worlds, J (N, 3, n), b (N, 3), damping (N,)."""
     W = off_diagonal_weights(damping, weight, J.shape[-1])
+    if J.ndim == 2:  # one world: the 2-D products cost less than the stacked ones' broadcasting
+        return W @ J.T @ np.linalg.solve(J @ W @ J.T + damping * E, b)
     WJt = W @ np.swapaxes(J, -1, -2)
     gram = J @ WJt + np.asarray(damping)[..., None, None] * E
     return (WJt @ np.linalg.solve(gram, b[..., None]))[..., 0]

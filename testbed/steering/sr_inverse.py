@@ -53,6 +53,8 @@ def wie_dither_matrix(t: float, epsilon0: float, omega: float, phases) -> np.nda
 def damped_rates(J: np.ndarray, b: np.ndarray, damping, E: np.ndarray) -> np.ndarray:
     """beta' = J^T (J J^T + damping E)^-1 b (the SR / GSR inverse applied to b = H'/h): J (3, n),
     b (3,), damping a float; or a stack of worlds, J (N, 3, n), b (N, 3), damping (N,)."""
+    if J.ndim == 2:  # one world: the 2-D products cost less than the stacked ones' broadcasting
+        return J.T @ np.linalg.solve(J @ J.T + damping * E, b)
     Jt = np.swapaxes(J, -1, -2)
     gram = J @ Jt + np.asarray(damping)[..., None, None] * E
     return (Jt @ np.linalg.solve(gram, b[..., None]))[..., 0]
