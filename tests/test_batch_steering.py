@@ -180,8 +180,10 @@ def test_which_worlds_run_per_world(extra):
     assert isinstance(form, PerWorld)
 
 
-def test_a_form_is_taken_for_every_law_on_rows():
+def test_a_form_is_taken_for_every_law_on_rows_from_two_worlds():
     for law in ROW_LAWS:
         plans = [prepare(scenario(angles, law, 1.0)) for angles in ANGLES[:2]]
         assert isinstance(forms_of([p.pipeline for p in plans])["allocator"], BatchedSteering), law
+        # one world alone keeps its own stage (rows of one cost more than its tick)
+        assert isinstance(forms_of([plans[0].pipeline])["allocator"], PerWorld), law
     assert math.isclose(np.radians(10.0), plans[0].pipeline.stages()["allocator"].rate_max)

@@ -40,12 +40,13 @@ COUNT_STATISTICS = ("rate_limit_violations", "steps", "acceleration_violations",
 
 def batched_form(stages: list):
     """The steering stages' form on their worlds (`BatchedSteering`), or None (run them per world)
+    for one world alone (numpy's per-call cost on rows of one is more than the single stage's tick),
     when a world has fault isolation, the worlds' options or unit counts differ, or the law has no
     form on rows."""
     first = stages[0]
     law_rows = ROW_LAWS.get(first.law_name)
     gimbals = len(first.geometry.gimbal_axes)
-    if law_rows is None or (first.law_name == "minimax" and gimbals != 4):
+    if len(stages) < 2 or law_rows is None or (first.law_name == "minimax" and gimbals != 4):
         return None
     for stage in stages:
         if (stage.isolation is not None or stage.options != first.options
