@@ -153,12 +153,14 @@ def test_a_world_with_a_bad_demand_fails_alone_as_its_stage_would():
 
 @pytest.mark.parametrize("law", ["minimax", "pinv"])
 def test_whole_runs_in_a_batch_are_each_world_run_alone(law):
-    # other slews and starts than the repository's reorient_minimax / reorient_pinv
+    # other slews and starts than the repository's reorient_minimax / reorient_pinv; worlds 1 and 3
+    # with gimbal limits of their own (limits()), the others without
     cases = [([30.0, -60.0, -20.0, 50.0], [1, 0, 0], 40), ([45.0, -45.0, -45.0, 45.0], [0, 0.6, 0.8], 60),
              ([0.5, -0.5, 90.0, -90.0], [0.6, -0.8, 0], 30), ([10.0, 10.0, 10.0, 10.0], [0, 0, 1], 90)]
     scenarios = [scenario(angles, law, 25.0, [f"pipeline.law.axis={axis}", f"pipeline.law.angle_deg={angle}",
-                                              "pipeline.law.duration_s=15", "pipeline.law.start_s=2"])
-                 for angles, axis, angle in cases]
+                                              "pipeline.law.duration_s=15", "pipeline.law.start_s=2",
+                                              *limits(i % 2 * i, angles)])
+                 for i, (angles, axis, angle) in enumerate(cases)]
     plans = [prepare(s) for s in scenarios]
     assert isinstance(forms_of([p.pipeline for p in plans])["allocator"], BatchedSteering)
     batched = run_batch(plans)
@@ -167,6 +169,9 @@ def test_whole_runs_in_a_batch_are_each_world_run_alone(law):
         agree(single, world)
     # the worlds differ: a batch that handed one world's numbers to another would not pass above
     assert len({r.metrics["max_tracking_error_deg"] for r in batched}) == len(cases)
+    # world 1's limits bind: its commands reach its own acceleration limit and its gimbal a stop
+    assert batched[1].metrics["peak_gimbal_acceleration_deg_s2"] == pytest.approx(150.0, rel=1e-9)
+    assert abs(batched[1].metrics["min_gimbal_angle_margin_deg"]) < 0.01
 
 
 @pytest.mark.parametrize("extra", [["pipeline.allocator.type=minimax_lp"],
