@@ -1,8 +1,9 @@
 """A pipeline slot's stage on many worlds at once: its batched form, or the worlds' own stages one by one.
 
 A stage class may declare `batched`, a classmethod taking the stage objects of the N worlds (all
-of its class) and giving a `BatchedForm`: the slot's method on (N, ...) arrays, a row per world.
-A slot without one, every plug-in's among them, runs through `PerWorld`, which calls each world's
+of its class) and giving a `BatchedForm`: the slot's method on (N, ...) arrays, a row per world
+(or None where these worlds' configuration has no batched form). A slot without one, every
+plug-in's among them, runs through `PerWorld`, which calls each world's
 own stage as a single run would. Either way a world's failure is its own: it leaves the batch and
 its batch-mates go on (`WorldsFailed`).
 """
@@ -98,13 +99,15 @@ class PerWorld:
 
 def form_of(slot: str, pipelines: list):
     """The slot's form on the worlds of `pipelines`: the stages' batched form when every world's
-    stage is of one built-in class that declares one and none has an output check, else `PerWorld`."""
+    stage is of one built-in class that declares one, none has an output check and the form takes
+    these worlds (not None), else `PerWorld`."""
     stages = [pipeline.stages()[slot] for pipeline in pipelines]
     kinds = {type(stage) for stage in stages}
     declared = pipelines[0].declared[slot]
+    form = None
     if len(kinds) == 1 and declared.batched is not None and not any(slot in p.checks for p in pipelines):
-        return declared.batched(stages)
-    return PerWorld(slot, pipelines)
+        form = declared.batched(stages)
+    return PerWorld(slot, pipelines) if form is None else form
 
 
 def forms_of(pipelines: list) -> dict:

@@ -31,6 +31,16 @@ from dataclasses import dataclass
 import numpy as np
 
 
+ACCELERATION_ROUNDING = 1e-9  # relative slack of a count of rate changes over u for the bounds' rounding
+
+
+def braking_rate(distance, rate_step, period, sqrt=math.sqrt, floor=math.floor):
+    """r_stop(d) of eq. (1) [rad/s] for 0 < d and u finite: floats, or arrays elementwise with
+    sqrt, floor = np.sqrt, np.floor."""
+    k = floor((sqrt(1.0 + 8.0 * distance / (period * rate_step)) - 1.0) / 2.0)
+    return distance / (period * (k + 1)) + rate_step * k / 2.0
+
+
 def stopping_rate(distance: float, rate_step: float, period: float) -> float:
     """r_stop(d) of eq. (1) [rad/s]: distance d [rad] to the stop, rate_step u = a_max Tc [rad/s]
     (math.inf: no acceleration limit), period Tc [s]; 0 for d <= 0, infinite for d infinite."""
@@ -40,14 +50,22 @@ def stopping_rate(distance: float, rate_step: float, period: float) -> float:
         return math.inf
     if math.isinf(rate_step):
         return distance / period
-    k = math.floor((math.sqrt(1.0 + 8.0 * distance / (period * rate_step)) - 1.0) / 2.0)
-    return distance / (period * (k + 1)) + rate_step * k / 2.0
+    return braking_rate(distance, rate_step, period)
+
+
+def stopping_rates(distance: np.ndarray, rate_step: np.ndarray, period: np.ndarray) -> np.ndarray:
+    """`stopping_rate` elementwise on arrays that broadcast (a row per world)."""
+    with np.errstate(all="ignore"):  # the cases of the branches below computed and dropped
+        braking = braking_rate(distance, rate_step, period, np.sqrt, np.floor)
+        free = np.where(np.isinf(rate_step), distance / period, braking)
+    return np.where(distance <= 0.0, 0.0, np.where(np.isinf(distance), np.inf, free))
 
 
 @dataclass(frozen=True)
 class GimbalLimits:
     """Per-gimbal angle range [angle_min, angle_max] (4,) [rad] (+-inf: none) and one
-    acceleration limit [rad/s^2] (math.inf: none), for commands held over `period` [s]."""
+    acceleration limit [rad/s^2] (math.inf: none), for commands held over `period` [s]. Of many
+    worlds at once: angle_min, angle_max (N, 4) and acceleration_max, period (N, 1), a row each."""
 
     angle_min: np.ndarray
     angle_max: np.ndarray
@@ -61,10 +79,15 @@ class GimbalLimits:
 
     def rate_bounds(self, setpoint, previous_rate, rate_max: float) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) (4,) [rad/s] for the next command, from the commanded angles `setpoint` [rad]
-        and the previous command [rad/s] (module doc). lo <= hi always (rounding is folded in)."""
+        and the previous command [rad/s] (module doc). lo <= hi always (rounding is folded in).
+        Of many worlds (limits of rows): setpoint and previous_rate (N, 4), rate_max (N, 1)."""
         u, tc = self.rate_step, self.period
-        up = np.array([stopping_rate(d, u, tc) for d in self.angle_max - setpoint])
-        down = np.array([stopping_rate(d, u, tc) for d in setpoint - self.angle_min])
+        if np.ndim(setpoint) == 1:  # one world: a float loop costs less than numpy's calls on 4 numbers
+            up = np.array([stopping_rate(d, u, tc) for d in self.angle_max - setpoint])
+            down = np.array([stopping_rate(d, u, tc) for d in setpoint - self.angle_min])
+        else:
+            up = stopping_rates(self.angle_max - setpoint, u, tc)
+            down = stopping_rates(setpoint - self.angle_min, u, tc)
         hi = np.minimum(np.minimum(rate_max, previous_rate + u), up)
         lo = np.maximum(np.maximum(-rate_max, previous_rate - u), -down)
         return np.minimum(lo, hi), hi

@@ -34,8 +34,26 @@ class JacobianSVD:
 def jacobian_svd(J: np.ndarray, rcond: float = DEFAULT_RCOND) -> JacobianSVD:
     """SVD of J with rank = number of singular values > rcond * sigma_max."""
     u, s, vt = np.linalg.svd(J, full_matrices=True)
-    rank = int(np.count_nonzero(s > rcond * s[0])) if s[0] > 0 else 0
+    rank = numerical_rank(s, rcond)
     return JacobianSVD(u[:, :rank], s[:rank], vt[:rank], vt[rank:], rank, float(np.prod(s)))
+
+
+def numerical_rank(s: np.ndarray, rcond: float):
+    """How many singular values s (k,), descending, exceed rcond * s_max (0 when s_max = 0): an int;
+    of many worlds' s (N, k), an array (N,)."""
+    if s.ndim == 1:  # one world: numpy's reductions along an axis cost more than these two calls
+        return int(np.count_nonzero(s > rcond * s[0])) if s[0] > 0 else 0
+    first = s[..., :1]
+    return np.count_nonzero((s > rcond * first) & (first > 0), axis=-1)
+
+
+def min_norm_rows(u: np.ndarray, s: np.ndarray, vt: np.ndarray, b: np.ndarray, rcond: float) -> tuple:
+    """`min_norm_solution` of N worlds from their full SVDs, a row each: u (N, 3, 3), s (N, 3),
+    vt (N, n, n), b (N, 3) -> (x (N, n), rank (N,)); singular values at or below rcond s_max dropped."""
+    rank = numerical_rank(s, rcond)
+    kept = np.arange(s.shape[-1]) < rank[:, None]
+    scaled = np.divide((b[:, None, :] @ u)[:, 0, :], s, out=np.zeros_like(s), where=kept)
+    return (scaled[:, None, :] @ vt[:, : s.shape[-1], :])[:, 0, :], rank
 
 
 def min_norm_solution(svd: JacobianSVD, b: np.ndarray) -> np.ndarray:

@@ -37,7 +37,8 @@ from testbed.errors import InputError
 from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
 from testbed.steering.minimax_dual import dual_minimax_rates
 from testbed.steering.minimax_lp import nullspace_lp_rates
-from testbed.steering.result import SteeringResult, limited_result, status_string
+from testbed.steering.result import (SteeringResult, SteeringRows, limited_result, limited_rows, status_code,
+                                     status_string)
 from testbed.math.validation import number_in
 from testbed.steering.validation import checked_problem, checked_rate_bounds
 
@@ -68,11 +69,17 @@ def minimax_line_parameter(x, n) -> float:
     for i, j in _PAIRS:
         wi, wj = w[i], w[j]
         if wi > floor and wj > floor:
-            den = wi + wj
-            v = abs(wj * a[i] - wi * a[j]) / den
+            v, t = pair_crossing(wi, wj, a[i], a[j])
             if v > best_v:
-                best_v, best_t = v, -(a[i] + a[j]) / den
+                best_v, best_t = v, t
     return best_t
+
+
+def pair_crossing(wi, wj, ai, aj):
+    """(v_ij, t_ij) of the module doc: where the rising line of one gimbal of a pair meets the
+    falling line of the other (w: |n|, a: sign(n) x); floats, or arrays elementwise."""
+    den = wi + wj
+    return abs(wj * ai - wi * aj) / den, -(ai + aj) / den
 
 
 def priced_line_parameter(x, n, price: float) -> float:
@@ -124,15 +131,20 @@ def particular_solution(rows, b, n) -> list[float]:
     abs_n = [abs(v) for v in n]
     k = abs_n.index(max(abs_n))
     cols = [i for i in (0, 1, 2, 3) if i != k]
-    y0, y1, y2 = ([rows[0][i], rows[1][i], rows[2][i]] for i in cols)
+    x = [0.0, 0.0, 0.0, 0.0]
+    for i, value in zip(cols, adjugate_solution(*([rows[0][i], rows[1][i], rows[2][i]] for i in cols), b)):
+        x[i] = value
+    return x
+
+
+def adjugate_solution(y0, y1, y2, b) -> tuple:
+    """Y^-1 b for Y = [y0 y1 y2] (columns, 3 each): [y1 x y2, y2 x y0, y0 x y1]^T b / det Y (eq. 22);
+    floats, or arrays elementwise (a row per world)."""
     c12 = (y1[1] * y2[2] - y1[2] * y2[1], y1[2] * y2[0] - y1[0] * y2[2], y1[0] * y2[1] - y1[1] * y2[0])
     c20 = (y2[1] * y0[2] - y2[2] * y0[1], y2[2] * y0[0] - y2[0] * y0[2], y2[0] * y0[1] - y2[1] * y0[0])
     c01 = (y0[1] * y1[2] - y0[2] * y1[1], y0[2] * y1[0] - y0[0] * y1[2], y0[0] * y1[1] - y0[1] * y1[0])
     inv_det = 1.0 / (y0[0] * c12[0] + y0[1] * c12[1] + y0[2] * c12[2])
-    x = [0.0, 0.0, 0.0, 0.0]
-    for i, cross in zip(cols, (c12, c20, c01)):
-        x[i] = (b[0] * cross[0] + b[1] * cross[1] + b[2] * cross[2]) * inv_det
-    return x
+    return tuple((b[0] * cross[0] + b[1] * cross[1] + b[2] * cross[2]) * inv_det for cross in (c12, c20, c01))
 
 
 def minimax_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND, null_motion_price: float = 0.0,
@@ -208,3 +220,60 @@ def _other_count(rows, h, hdot, beta_rate_max, rcond, rate_bounds) -> SteeringRe
         beta = p if lp_failed else lp
     bounds = None if rate_bounds is None else checked_rate_bounds(rate_bounds, beta_rate_max, len(rows[0]))
     return limited_result(J, h, beta, beta_rate_max, svd.measure, svd.rank, lp_failed, bounds=bounds)
+
+
+# --- many worlds at once: the same formulas on a row per world (testbed.batch) -------------------
+_OTHER_COLUMNS = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])
+_PAIR_FIRST, _PAIR_SECOND = np.array(_PAIRS).T
+
+
+def minimax_steering_rows(J, h, hdot, beta_rate_max, *, rcond: float, null_motion_price: float,
+                          rate_bounds=None) -> SteeringRows:
+    """`minimax_steering` of N worlds' 4-unit problems, a row each: J (N, 3, 4), h (N,) [N m s],
+    hdot (N, 3) [N m], beta_rate_max (N,) [rad/s], rate_bounds None or (lo, hi) (N, 4) each; finite
+    inputs and the options already checked (the stage checks them once). The closed form runs on
+    all rows together, its one branch (the pair of gimbals whose lines cross highest) chosen by
+    argmax; a row where the cofactor formulas lose accuracy (|n| <= NEAR_SINGULAR |J|_F^3, the SVD and LP branch) or a priced null
+    motion (null_motion_price > 0) takes `minimax_steering` itself. Row i is world i's result to
+    the last bit where numpy's elementwise arithmetic is Python's."""
+    count = len(J)
+    b = hdot / h[:, None]
+    rows = np.ascontiguousarray(J.transpose(1, 2, 0))  # (3, 4, N): rows[r][c] a row per world
+    n = cofactor_null_vector(rows)
+    measure = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3])
+    fro2 = sum(v * v for v in rows[0]) + sum(v * v for v in rows[1]) + sum(v * v for v in rows[2])
+    closed = measure > NEAR_SINGULAR * fro2 * np.sqrt(fro2)
+    null = np.array(n)  # (4, N)
+    # particular solution (particular_solution): x_k = 0 at k = argmax |n_k|, the others Y^-1 b
+    others = _OTHER_COLUMNS[np.argmax(np.abs(null), axis=0)].T  # (3, N): the kept units
+    worlds = np.arange(count)
+    Y = rows[:, others, worlds]  # (3, 3, N): Y[r, c] row r of the kept unit c
+    solved = adjugate_solution(Y[:, 0], Y[:, 1], Y[:, 2], b.T)
+    x = np.zeros((4, count))
+    x[others, worlds] = solved
+    beta = (x + minimax_line_parameter_rows(x, null) * null).T
+    result = limited_rows(J, h, beta, beta_rate_max, measure, np.full(count, 3), rate_bounds)
+    for row in np.flatnonzero(~closed if null_motion_price == 0.0 else np.ones(count, bool)).tolist():
+        single = minimax_steering(J[row], h[row], hdot[row], beta_rate_max[row], rcond=rcond,
+                                  null_motion_price=null_motion_price,
+                                  rate_bounds=None if rate_bounds is None else [bound[row] for bound in rate_bounds])
+        result.beta_rate[row], result.hdot_delivered[row] = single.beta_rate, single.hdot_delivered
+        result.scale[row], result.singularity_measure[row] = single.scale, single.singularity_measure
+        result.rank[row], result.status[row] = single.rank, status_code(single.status)
+    return result
+
+
+def minimax_line_parameter_rows(x, n):
+    """`minimax_line_parameter` of N lines at once: x, n (4, N) -> t (N,); the 6 pairs' crossings
+    (6, N) at once, the highest taken by argmax, which like the single form's scan keeps the first
+    pair of a tie (so the same t)."""
+    w = np.abs(n)
+    a = np.where(n >= 0.0, x, -x)
+    k = np.argmax(w, axis=0)
+    columns = np.arange(w.shape[1])
+    floor = ZERO_SLOPE * w[k, columns]
+    wi, wj = w[_PAIR_FIRST], w[_PAIR_SECOND]
+    v, t = pair_crossing(wi, wj, a[_PAIR_FIRST], a[_PAIR_SECOND])
+    v = np.where((wi > floor) & (wj > floor), v, -1.0)  # a pair with a flat line has no crossing
+    best = np.argmax(v, axis=0)
+    return np.where(v[best, columns] > -1.0, t[best, columns], -a[k, columns] / w[k, columns])

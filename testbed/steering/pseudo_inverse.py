@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
-from testbed.steering.result import SteeringResult, limited_result
+from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_rows, min_norm_solution
+from testbed.steering.result import SteeringResult, SteeringRows, limited_result, limited_rows
 from testbed.math.validation import number_in
 from testbed.steering.validation import checked_problem, checked_rate_bounds
 
@@ -30,3 +30,11 @@ def pinv_steering(J, h, Hdot, beta_rate_max, *, rcond: float = DEFAULT_RCOND, ra
     beta_rate = min_norm_solution(svd, np.array(hdot) / h)
     return limited_result(J, h, beta_rate, beta_rate_max, svd.measure, svd.rank, bounds=bounds)
 
+
+def pinv_steering_rows(J, h, hdot, beta_rate_max, *, rcond: float, rate_bounds=None) -> SteeringRows:
+    """`pinv_steering` of N worlds, a row each: J (N, 3, n), h (N,) [N m s], hdot (N, 3) [N m],
+    beta_rate_max (N,) [rad/s], rate_bounds None or (lo, hi) (N, n) each; finite inputs and
+    options already checked (testbed.batch)."""
+    u, s, vt = np.linalg.svd(J, full_matrices=True)
+    beta_rate, rank = min_norm_rows(u, s, vt, hdot / h[:, None], rcond)
+    return limited_rows(J, h, beta_rate, beta_rate_max, np.prod(s, axis=-1), rank, rate_bounds)

@@ -27,6 +27,16 @@ def apply_rate_limit(beta_rate: np.ndarray, beta_rate_max: float) -> tuple[np.nd
     return np.clip(beta_rate * k, -beta_rate_max, beta_rate_max), k
 
 
+def apply_rate_limit_rows(beta_rate: np.ndarray, beta_rate_max: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`apply_rate_limit` on many worlds' rates, a row each: beta_rate (N, n) [rad/s], beta_rate_max
+    (N,) [rad/s] -> (k beta_rate (N, n), k (N,)), each row as `apply_rate_limit` gives it."""
+    peak = np.max(np.abs(beta_rate), axis=-1)
+    limited = peak > beta_rate_max
+    k = np.where(limited, beta_rate_max / np.where(limited, peak, 1.0), 1.0)
+    bound = beta_rate_max[:, None]
+    return np.where(limited[:, None], np.clip(beta_rate * k[:, None], -bound, bound), beta_rate), k
+
+
 def apply_rate_bounds(beta_rate: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, float]:
     """(p + k (beta_rate - p), k): per-gimbal bounds lo <= beta' <= hi (4,) instead of +-beta_rate_max.
 
@@ -48,3 +58,16 @@ def apply_rate_bounds(beta_rate: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> 
         return beta_rate, 1.0
     k += 0.0  # -0.0 (an end of the box at p itself) reads as 0
     return np.clip(p + k * step, lo, hi), k
+
+
+def apply_rate_bounds_rows(beta_rate: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`apply_rate_bounds` on many worlds' rates, a row each: beta_rate, lo, hi (N, n) [rad/s] ->
+    (the bounded rates (N, n), k (N,)), each row as `apply_rate_bounds` gives it."""
+    p = np.clip(0.0, lo, hi)
+    step = beta_rate - p
+    over, under = beta_rate > hi, beta_rate < lo
+    ratio = np.where(over, (hi - p) / np.where(over, step, 1.0),
+                     np.where(under, (lo - p) / np.where(under, step, 1.0), 1.0))
+    k = np.minimum(ratio.min(axis=-1), 1.0) + 0.0  # -0.0 (an end of the box at p itself) reads as 0
+    limited = (k < 1.0)[:, None]
+    return np.where(limited, np.clip(p + k[:, None] * step, lo, hi), beta_rate), k

@@ -6,7 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from testbed.steering.rate_limit import apply_rate_bounds, apply_rate_limit
+from testbed.steering.rate_limit import (apply_rate_bounds, apply_rate_bounds_rows, apply_rate_limit,
+                                         apply_rate_limit_rows)
 
 # Status flags (joined with "+" when several apply).
 OK = "ok"
@@ -43,6 +44,20 @@ class SteeringResult:
     status: str
 
 
+@dataclass(slots=True)
+class SteeringRows:
+    """`SteeringResult`s of N worlds, a row each: beta_rate (N, n) [rad/s], hdot_delivered (N, 3)
+    [N m], scale (N,), singularity_measure (N,), rank (N,) and status (N,) as the sum of its
+    flags' STATUS_CODES (the number the trace records)."""
+
+    beta_rate: np.ndarray
+    hdot_delivered: np.ndarray
+    scale: np.ndarray
+    singularity_measure: np.ndarray
+    rank: np.ndarray
+    status: np.ndarray
+
+
 def status_string(rate_limited: bool, rank_deficient: bool = False, lp_failed: bool = False,
                   avoidance_limited: bool = False) -> str:
     """Join the flags that apply into the status string ("ok" when none do)."""
@@ -68,3 +83,16 @@ def limited_result(J, h, beta_rate, beta_rate_max, measure, rank, lp_failed=Fals
         beta_rate, k = apply_rate_bounds(beta_rate, *bounds)
     return SteeringResult(beta_rate, h * (J @ beta_rate), k, measure, rank,
                           status_string(k < 1.0, rank < 3, lp_failed))
+
+
+def limited_rows(J, h, beta_rate, beta_rate_max, measure, rank, bounds=None) -> SteeringRows:
+    """`limited_result` on N worlds' rows: J (N, 3, n), h (N,) [N m s], beta_rate (N, n) [rad/s],
+    beta_rate_max (N,) [rad/s], measure and rank (N,); bounds: optional (lo, hi) (N, n) each,
+    within +-beta_rate_max (they replace the symmetric limit, as in `limited_result`)."""
+    if bounds is None:
+        beta_rate, k = apply_rate_limit_rows(beta_rate, beta_rate_max)
+    else:
+        beta_rate, k = apply_rate_bounds_rows(beta_rate, *bounds)
+    delivered = h[:, None] * (J @ beta_rate[:, :, None])[:, :, 0]
+    status = STATUS_CODES[RATE_LIMITED] * (k < 1.0) + STATUS_CODES[RANK_DEFICIENT] * (rank < 3)
+    return SteeringRows(beta_rate, delivered, k, measure, rank, status)

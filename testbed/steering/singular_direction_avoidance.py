@@ -18,21 +18,36 @@ import math
 import numpy as np
 
 from testbed.math.validation import number_in
-from testbed.steering.least_squares import DEFAULT_RCOND
-from testbed.steering.result import SteeringResult, limited_result
+from testbed.steering.least_squares import DEFAULT_RCOND, numerical_rank
+from testbed.steering.result import SteeringResult, SteeringRows, limited_result, limited_rows
 from testbed.steering.validation import checked_problem, checked_rate_bounds
 
 
 def sda_gains(s: np.ndarray, lambda0: float, mu: float, rcond: float) -> np.ndarray:
     """The inverse singular values of SDA: 1/s_k for k < 3 (0 at or below rcond s_1), and
-    s_3 / (s_3^2 + lambda0 exp(-mu s_3^2)) for the smallest (Ford & Hall 2000)."""
+    s_3 / (s_3^2 + lambda0 exp(-mu s_3^2)) for the smallest (Ford & Hall 2000); s (3,)."""
     gains = np.zeros_like(s)
     kept = s[:-1] > rcond * s[0]
     gains[:-1][kept] = 1.0 / s[:-1][kept]
     last = s[-1]
-    damping = lambda0 * math.exp(-mu * last * last)
-    gains[-1] = last / (last * last + damping) if last * last + damping > 0 else 0.0
+    denominator = damped_square(last, lambda0, mu, math.exp)
+    gains[-1] = last / denominator if denominator > 0 else 0.0
     return gains
+
+
+def sda_gains_rows(s: np.ndarray, lambda0: float, mu: float, rcond: float) -> np.ndarray:
+    """`sda_gains` of N worlds' singular values s (N, 3), a row each."""
+    gains = np.zeros_like(s)
+    np.divide(1.0, s[:, :-1], out=gains[:, :-1], where=s[:, :-1] > rcond * s[:, :1])
+    denominator = damped_square(s[:, -1], lambda0, mu, np.exp)
+    np.divide(s[:, -1], denominator, out=gains[:, -1], where=denominator > 0)
+    return gains
+
+
+def damped_square(last, lambda0: float, mu: float, exp):
+    """s_3^2 + lambda0 exp(-mu s_3^2): the damped square of the smallest singular value (Ford & Hall
+    2000, scheduled as Wie's); a float with exp = math.exp, an array with np.exp."""
+    return last * last + lambda0 * exp(-mu * last * last)
 
 
 def sda_steering(J, h, Hdot, beta_rate_max, *, lambda0: float = 0.01, mu: float = 10.0,
@@ -49,5 +64,17 @@ def sda_steering(J, h, Hdot, beta_rate_max, *, lambda0: float = 0.01, mu: float 
     J = np.array(rows)
     u, s, vt = np.linalg.svd(J, full_matrices=False)
     beta_rate = vt.T @ (sda_gains(s, lambda0, mu, rcond) * (u.T @ (np.array(hdot) / h)))
-    rank = int(np.count_nonzero(s > rcond * s[0])) if s[0] > 0 else 0
-    return limited_result(J, h, beta_rate, beta_rate_max, float(np.prod(s)), rank, bounds=bounds)
+    return limited_result(J, h, beta_rate, beta_rate_max, float(np.prod(s)), numerical_rank(s, rcond), bounds=bounds)
+
+
+def sda_steering_rows(J, h, hdot, beta_rate_max, *, lambda0: float, mu: float, rcond: float,
+                      rate_bounds=None) -> SteeringRows:
+    """`sda_steering` of N worlds, a row each: J (N, 3, n), h (N,) [N m s], hdot (N, 3) [N m],
+    beta_rate_max (N,) [rad/s], rate_bounds None or (lo, hi) (N, n) each; finite inputs and
+    options already checked (testbed.batch)."""
+    u, s, vt = np.linalg.svd(J, full_matrices=False)
+    b = hdot / h[:, None]
+    along = (b[:, None, :] @ u)[:, 0, :] * sda_gains_rows(s, lambda0, mu, rcond)
+    beta_rate = (along[:, None, :] @ vt)[:, 0, :]
+    return limited_rows(J, h, beta_rate, beta_rate_max, np.prod(s, axis=-1), numerical_rank(s, rcond),
+                        rate_bounds)

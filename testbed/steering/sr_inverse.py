@@ -22,20 +22,23 @@ import math
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.steering.least_squares import DEFAULT_RCOND, jacobian_svd, min_norm_solution
-from testbed.steering.result import SteeringResult, limited_result
+from testbed.steering.least_squares import (DEFAULT_RCOND, jacobian_svd, min_norm_rows, min_norm_solution,
+                                            numerical_rank)
+from testbed.steering.result import SteeringResult, SteeringRows, limited_result, limited_rows
 from testbed.math.validation import number_in, positive_number
 from testbed.steering.validation import checked_problem, checked_rate_bounds
 
 
-def nakamura_damping(m: float, lambda0: float, m0: float) -> float:
-    """Nakamura-Hanafusa damping lambda0 (1 - m/m0)^2 below the threshold m0, else 0."""
-    return lambda0 * (1.0 - m / m0) ** 2 if m < m0 else 0.0
+def nakamura_damping(m, lambda0: float, m0: float, minimum=min):
+    """Nakamura-Hanafusa damping lambda0 (1 - m/m0)^2 below the threshold m0, else 0 (the square
+    vanishes at m = m0); m a float, or an array of one per world with minimum = np.minimum."""
+    return lambda0 * (1.0 - minimum(m, m0) / m0) ** 2
 
 
-def wie_damping(det_jjt: float, lambda0: float, mu: float) -> float:
-    """Wie's GSR damping lambda0 exp(-mu det(J J^T)) (never zero, largest at a singularity)."""
-    return lambda0 * math.exp(-mu * det_jjt)
+def wie_damping(det_jjt, lambda0: float, mu: float, exp=math.exp):
+    """Wie's GSR damping lambda0 exp(-mu det(J J^T)) (never zero, largest at a singularity);
+    det_jjt a float, or an array of one per world with exp = np.exp."""
+    return lambda0 * exp(-mu * det_jjt)
 
 
 def wie_dither_matrix(t: float, epsilon0: float, omega: float, phases) -> np.ndarray:
@@ -47,9 +50,14 @@ def wie_dither_matrix(t: float, epsilon0: float, omega: float, phases) -> np.nda
     return np.array([[1.0, e3, e2], [e3, 1.0, e1], [e2, e1, 1.0]])
 
 
-def damped_rates(J: np.ndarray, b: np.ndarray, damping: float, E: np.ndarray) -> np.ndarray:
-    """beta' = J^T (J J^T + damping E)^-1 b (the SR / GSR inverse applied to b = H'/h)."""
-    return J.T @ np.linalg.solve(J @ J.T + damping * E, b)
+def damped_rates(J: np.ndarray, b: np.ndarray, damping, E: np.ndarray) -> np.ndarray:
+    """beta' = J^T (J J^T + damping E)^-1 b (the SR / GSR inverse applied to b = H'/h): J (3, n),
+    b (3,), damping a float; or a stack of worlds, J (N, 3, n), b (N, 3), damping (N,)."""
+    if J.ndim == 2:  # one world: the 2-D products cost less than the stacked ones' broadcasting
+        return J.T @ np.linalg.solve(J @ J.T + damping * E, b)
+    Jt = np.swapaxes(J, -1, -2)
+    gram = J @ Jt + np.asarray(damping)[..., None, None] * E
+    return (Jt @ np.linalg.solve(gram, b[..., None]))[..., 0]
 
 
 def sr_steering(J, h, Hdot, beta_rate_max, *, lambda0: float = 0.01, m0: float = 0.2,
@@ -110,3 +118,29 @@ def gsr_steering(J, h, Hdot, beta_rate_max, *, t: float = 0.0, lambda0: float = 
     damping = wie_damping(svd.measure ** 2, lambda0, mu)
     beta_rate = damped_rates(J, np.array(hdot) / h, damping, E)
     return limited_result(J, h, beta_rate, beta_rate_max, svd.measure, svd.rank, bounds=bounds)
+
+
+def sr_steering_rows(J, h, hdot, beta_rate_max, *, lambda0: float, m0: float, rcond: float,
+                     rate_bounds=None) -> SteeringRows:
+    """`sr_steering` of N worlds, a row each: J (N, 3, n), h (N,) [N m s], hdot (N, 3) [N m],
+    beta_rate_max (N,) [rad/s], rate_bounds None or (lo, hi) (N, n) each; finite inputs and
+    options already checked (testbed.batch)."""
+    b = hdot / h[:, None]
+    u, s, vt = np.linalg.svd(J, full_matrices=True)
+    measure = np.prod(s, axis=-1)
+    beta_rate, rank = min_norm_rows(u, s, vt, b, rcond)
+    damping = nakamura_damping(measure, lambda0, m0, np.minimum)
+    damped = damping > 0  # only those: an undamped singular J J^T has no inverse
+    if damped.any():
+        beta_rate[damped] = damped_rates(J[damped], b[damped], damping[damped], np.eye(3))
+    return limited_rows(J, h, beta_rate, beta_rate_max, measure, rank, rate_bounds)
+
+
+def gsr_steering_rows(J, h, hdot, beta_rate_max, *, t: float, lambda0: float, mu: float, epsilon0: float,
+                      omega: float, phases, rcond: float, rate_bounds=None) -> SteeringRows:
+    """`gsr_steering` of N worlds at time t [s], a row each (as `sr_steering_rows`)."""
+    s = np.linalg.svd(J, compute_uv=False)
+    measure = np.prod(s, axis=-1)
+    beta_rate = damped_rates(J, hdot / h[:, None], wie_damping(measure ** 2, lambda0, mu, np.exp),
+                             wie_dither_matrix(t, epsilon0, omega, phases))
+    return limited_rows(J, h, beta_rate, beta_rate_max, measure, numerical_rank(s, rcond), rate_bounds)

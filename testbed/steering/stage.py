@@ -62,13 +62,13 @@ from testbed.math.cross import cross3
 from testbed.pipeline import stage
 from testbed.scenario.schema import join, param
 from testbed.steering import FOUR_UNIT_LAWS, LAW_OPTIONS, STEERING_LAWS, STEP_INPUTS
+from testbed.steering.batched_stage import ROW_LAWS, batched_form
 from testbed.steering.fault_isolation import FaultIsolation
-from testbed.steering.gimbal_limits import GimbalLimits
+from testbed.steering.gimbal_limits import ACCELERATION_ROUNDING, GimbalLimits
 from testbed.steering.result import status_code
 from testbed.steering.singularity_type import NOT_SINGULAR, singularity_type
 
 STAGE_RCOND = 1e-2  # relative singular-value cut for the stage (see module doc)
-ACCELERATION_ROUNDING = 1e-9  # relative slack of the acceleration count for the bounds' rounding
 ANGLE_LIMITS = "pipeline.allocator.gimbal_angle_limits_deg"
 STOP_RANGE_DEG = 360.0  # a travel stop further from zero is a gimbal without stops (null), misnamed
 
@@ -305,8 +305,11 @@ class SteeringAllocator:
 
 
 def _register(name: str) -> None:
-    cls = type(f"{name}_steering", (SteeringAllocator,), {"law_name": name, "__doc__": STEERING_LAWS[name].__doc__,
-                                                          "four_units_only": FOUR_UNIT_LAWS.get(name, "")})
+    attributes = {"law_name": name, "__doc__": STEERING_LAWS[name].__doc__,
+                  "four_units_only": FOUR_UNIT_LAWS.get(name, "")}
+    if name in ROW_LAWS:  # its form on many worlds (testbed.batch): this class's allocate, a row per world
+        attributes["batched"] = classmethod(lambda cls, stages: batched_form(stages))
+    cls = type(f"{name}_steering", (SteeringAllocator,), attributes)
     stage("allocator", name, SteeringParams)(cls)
 
 
