@@ -16,10 +16,11 @@ import pytest
 
 import testbed
 from testbed.batch import Batch
+from testbed.batch.plant_group import PerWorldPlants
 from testbed.run_core.plan import prepare
 from testbed.systems.cmg_cluster.faults import FaultEvent
 from testbed.systems.cmg_cluster.plant import CmgPlant
-from testbed.systems.cmg_cluster.plants_group import CmgPlantGroup
+from testbed.systems.cmg_cluster.plants_group import GROUP_FROM_WORLDS, CmgPlantGroup
 from testbed.systems.cmg_rhombus import CmgRhombusParams, build
 from tests.test_batch_lockstep import agree
 
@@ -132,10 +133,11 @@ def test_intvelocity_rows_are_each_worlds_plant_tick_by_tick():
     run_side_by_side(worlds, 150, seed=9)
 
 
-def test_worlds_of_other_layouts_or_servos_run_per_world():
-    plants = [plant_of(FEEDFORWARD_WORLDS[0], OMEGA0[0]),
-              plant_of(dict(FEEDFORWARD_WORLDS[2], servo_model="intvelocity"), OMEGA0[1])]
-    assert type(CmgPlant.group_form(plants, STEPS)) is not CmgPlantGroup
+def test_worlds_of_other_servos_or_too_few_run_per_world():
+    plants = [plant_of(world, w) for world, w in zip(FEEDFORWARD_WORLDS[:3], OMEGA0)]
+    plants.append(plant_of(dict(FEEDFORWARD_WORLDS[3], servo_model="intvelocity"), OMEGA0[3]))
+    assert type(CmgPlant.group_form(plants, STEPS)) is PerWorldPlants
+    assert type(CmgPlant.group_form(plants[:GROUP_FROM_WORLDS - 1], STEPS)) is PerWorldPlants
 
 
 def batch_against_singles(scenarios) -> None:

@@ -16,6 +16,8 @@ module's (they do on the machines measured; elsewhere an ulp of the angle's sine
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from testbed.batch.plant_group import PerWorldPlants
@@ -24,13 +26,19 @@ from testbed.systems.cmg_cluster.faults import FAULT_CODES
 from testbed.systems.cmg_cluster.gimbal_servo import FeedForwardServo
 
 
+# fewer worlds than this cost less one by one: the group's NumPy calls cost about as much as
+# 3 worlds' scalar servo ticks (flagship: read, command and truth 22 against 23 us a world-tick at 4 worlds)
+GROUP_FROM_WORLDS = 4
+
+
 def cmg_plant_group(plants: list, steps: int):
-    """The group of the worlds' CmgPlants: `CmgPlantGroup` when they share one state layout
-    (the same joints and actuators at the same addresses) and one servo model, else
-    `PerWorldPlants` (each world's own plant, as a single run steps it)."""
+    """The group of the worlds' CmgPlants: `CmgPlantGroup` when there are GROUP_FROM_WORLDS or
+    more and they share one state layout (the same joints and actuators at the same addresses)
+    and one servo model, else `PerWorldPlants` (each world's own plant, as a single run steps it)."""
     first = plants[0]
     layout = _layout(first)
-    if any(_layout(plant) != layout or type(plant.servo) is not type(first.servo) for plant in plants[1:]):
+    if len(plants) < GROUP_FROM_WORLDS or any(_layout(plant) != layout or type(plant.servo) is not type(first.servo)
+                                               for plant in plants[1:]):
         return PerWorldPlants(plants, steps)
     return CmgPlantGroup(plants, steps)
 
@@ -72,7 +80,7 @@ class CmgPlantGroup(PerWorldPlants):
         """(Re)build the per-world views and the servos' and jump refinements' state as rows."""
         plants, n = self.plants, self.units
         datas = [plant.data for plant in plants]
-        self._datas = datas
+        self._datas, self._models = datas, [plant.model for plant in plants]
         self._qpos, self._qvel, self._act = ([d.qpos for d in datas], [d.qvel for d in datas],
                                              [d.act for d in datas])
         self._ctrl_views = [d.ctrl for d in datas]
@@ -93,7 +101,6 @@ class CmgPlantGroup(PerWorldPlants):
         for row, servo in enumerate(servos):
             self.jammed[row, servo._jammed] = True
         self.rate_limit = np.array([_limit_row(s.rate_limit, n) for s in servos]).reshape(count, n)
-        self.limited = np.array([s.rate_limit is not None for s in servos])
         jumps = [plant.jumps for plant in plants]
         self.jump_last = np.array([j.last for j in jumps], dtype=float).reshape(count, n)
         self.jump_until = np.array([-np.inf if own else j.until for own, j in zip(self.own_steps, jumps)])
@@ -121,18 +128,19 @@ class CmgPlantGroup(PerWorldPlants):
         self.spin_inertia = np.array([s.geometry.spin_inertia for s in servos], dtype=float).reshape(count, n)
         self.torque_limit = np.array([np.inf if s.torque_limit is None else s.torque_limit for s in servos])[:, None]
         self.torque_limited = np.array([s.torque_limit is not None for s in servos])[:, None]
+        self.any_torque_limit = bool(self.torque_limited.any())
 
     # --- rows ---------------------------------------------------------------------------
     def keep(self, rows: np.ndarray) -> None:
         """Only the worlds at `rows` go on (their state rows kept, the others' dropped)."""
         super().keep(rows)
-        for name in ("ctrl", "current", "previous", "applied_at", "jammed", "rate_limit", "limited", "jump_last",
+        for name in ("ctrl", "current", "previous", "applied_at", "jammed", "rate_limit", "jump_last",
                      "jump_until", "jump_threshold", "jump_window") + (
                 ("gain", "kv_q", "jp", "jq", "delta", "predicted", "torque", "last_angle", "last_rate",
                  "mean_before", "m1", "ramp", "bus_response", "spin_zero", "turn", "spin_inertia", "torque_limit",
                  "torque_limited") if self.feedforward else ()):
             setattr(self, name, getattr(self, name)[rows])
-        self._datas = [self._datas[i] for i in rows]
+        self._datas, self._models = [self._datas[i] for i in rows], [self._models[i] for i in rows]
         self._qpos, self._qvel, self._act = ([self._qpos[i] for i in rows], [self._qvel[i] for i in rows],
                                              [self._act[i] for i in rows])
         self._ctrl_views = [self._ctrl_views[i] for i in rows]
@@ -183,7 +191,8 @@ class CmgPlantGroup(PerWorldPlants):
         omega, quat, angle, rate, rotor, _, _ = self._cols
         if self._fast_truth:
             signals = {"omega": self.qvel[:, omega], "quat": self.qpos[:, quat],
-                       "angular_momentum_world": np.array([p.angular_momentum_world() for p in self.plants])}
+                       "angular_momentum_world": self.plants[0].bus.total_angular_momenta_world(
+                           self._models, self._datas, np.empty((len(self._datas), 3)))}
             signals.update(gimbal_angle=self.qpos[:, angle], gimbal_rate=self.qvel[:, rate],
                            gimbal_rate_command=self.held_command(), rotor_rate=self.qvel[:, rotor])
             if self.plants[0].faults is not None:
@@ -252,32 +261,34 @@ class CmgPlantGroup(PerWorldPlants):
         self.jammed[row] = False
         self.jammed[row, servo._jammed] = True
         self.rate_limit[row] = _limit_row(servo.rate_limit, self.units)
-        self.limited[row] = servo.rate_limit is not None
         self.ctrl[row, self._rotor_ctrl] = plant.data.ctrl[self._rotor_ctrl]
 
     def _servo(self, rates) -> dict:
         """The servos' take of this tick's gimbal-rate command (None: hold), then, for the
         feedforward servo, its observer update and held motor torque (FeedForwardServo.apply);
-        written into the ctrl rows. Row -> the failure of a world whose angles are not finite
+        written into the ctrl rows. Row -> the failure of a world whose angles are infinite
         (where the scalar servo's math.cos raises)."""
         self.previous = self.current
-        self.applied_at = self.time.copy()
+        self.applied_at = self.time
         if rates is not None:
-            given = np.broadcast_to(np.asarray(rates, dtype=float), self.current.shape)
-            self.current = np.where(self.jammed, 0.0, given)
+            self.current = np.where(self.jammed, 0.0, np.asarray(rates, dtype=float))
         if not self.feedforward:
             self.ctrl[:, self._rates_ctrl] = self.current
             return {}
         with np.errstate(all="ignore"):
-            failures = self._feedforward()
-        return failures
+            self._feedforward()
+        angle = self.last_angle
+        if math.isfinite(float(angle.sum())):
+            return {}
+        return {int(row): ValueError("math domain error") for row in np.flatnonzero(np.isinf(angle).any(axis=1))}
 
-    def _feedforward(self) -> dict:
-        """FeedForwardServo.apply and _angle_correction on the rows, operation for operation."""
+    def _feedforward(self) -> None:
+        """FeedForwardServo.apply and _angle_correction on the rows, operation for operation (a
+        rate limit of inf clips nothing, to the bit)."""
         _, _, angle_cols, rate_cols, _, act_cols, _ = self._cols
-        limit, limited = self.rate_limit, self.limited[:, None]
-        command = np.where(limited, np.minimum(np.maximum(self.current, -limit), limit), self.current)
-        followed = np.where(limited, np.minimum(np.maximum(self.previous, -limit), limit), self.previous)
+        limit = self.rate_limit
+        command = np.minimum(np.maximum(self.current, -limit), limit)
+        followed = np.minimum(np.maximum(self.previous, -limit), limit)
         rate, angle, setpoint = self.qvel[:, rate_cols], self.qpos[:, angle_cols], self.act[:, act_cols]
         # _angle_correction: the PD-weighted mean angles' second difference, times D
         m1, ramp = self.m1, self.ramp
@@ -290,32 +301,35 @@ class CmgPlantGroup(PerWorldPlants):
         coming = 2.0 * delta_now - self.delta + correction
         self.delta = delta_now
         torque = self.kv_q * command - self.jp * (angle - setpoint) - self.jq * rate - coming
-        limit = self.torque_limit
-        applied = np.where(self.torque_limited, np.minimum(np.maximum(torque, -limit), limit), torque)
-        self.predicted = np.where(self.torque_limited, coming + torque - applied, coming)
-        self.torque = applied
-        self.ctrl[:, self._servo_ctrl] = np.concatenate([self.current, applied], axis=1)
-        bad = np.isinf(angle).any(axis=1)
-        return {int(row): ValueError("math domain error") for row in np.flatnonzero(bad)}
+        if self.any_torque_limit:
+            limit = self.torque_limit
+            applied = np.minimum(np.maximum(torque, -limit), limit)
+            # the motor's shortfall counts as disturbance not compensated (no wind-up)
+            coming = np.where(self.torque_limited, coming + torque - applied, coming)
+            torque = applied
+        self.predicted, self.torque = coming, torque
+        self.ctrl[:, self._servo_ctrl] = np.concatenate([self.current, torque], axis=1)
 
     def _angle_sensitivity_times(self, angle: np.ndarray, x: np.ndarray) -> np.ndarray:
         """FeedForwardServo.angle_sensitivity_times on the rows: D x [N m], (N, n), for x (N, n)
-        [rad]; the cluster's turned axes as ClusterGeometry.turned_axes_floats computes them."""
+        [rad]; the turned axes as ClusterGeometry.turned_axes_floats computes them, every sum in
+        the scalar code's order (written out: NumPy's reductions add in another order)."""
         c, s = np.cos(angle)[..., None], np.sin(angle)[..., None]
-        e, t = self.spin_zero, self.turn
-        spin = c * e + s * t  # (N, n, 3)
-        columns = -s * e + c * t
+        e, t = self.spin_zero, self.turn  # (N, n, 3)
+        spin = c * e + s * t
+        columns = c * t - s * e  # -s e + c t, to the bit
         h = self.spin_inertia * self.qvel[:, self._cols[4]]
-        w = self.qvel[:, self._cols[6]]
-        total = np.zeros((len(h), 3))  # sum_j h_j x_j J_j, summed in j's order
-        k = h * x
-        for j in range(self.units):
-            total = total + k[:, j, None] * columns[:, j]
-        r = self.bus_response
-        u = [r[:, i, 0] * total[:, 0] + r[:, i, 1] * total[:, 1] + r[:, i, 2] * total[:, 2] for i in range(3)]
-        along = columns[..., 0] * u[0][:, None] + columns[..., 1] * u[1][:, None] + columns[..., 2] * u[2][:, None]
-        turning = spin[..., 0] * w[:, 0, None] + spin[..., 1] * w[:, 1, None] + spin[..., 2] * w[:, 2, None]
-        return -h * (along + turning * x)
+        terms = (h * x)[..., None] * columns  # h_j x_j J_j, summed over j in order
+        total = terms[:, 0]
+        for j in range(1, self.units):
+            total = total + terms[:, j]
+        parts = self.bus_response * total[:, None, :]  # R sum_j h_j x_j J_j, each row's three products
+        u = (parts[..., 0] + parts[..., 1] + parts[..., 2])[:, None, :]
+        along = columns * u
+        w = self.qvel[:, None, self._cols[6]]
+        turning = spin * w
+        return -h * ((along[..., 0] + along[..., 1] + along[..., 2])
+                     + (turning[..., 0] + turning[..., 1] + turning[..., 2]) * x)
 
     # --- physics -------------------------------------------------------------------------
     def step(self) -> None:
@@ -324,7 +338,7 @@ class CmgPlantGroup(PerWorldPlants):
         (JumpRefinement.advance), the others at the model's timestep."""
         self._read()
         commands = self.ctrl[:, self._rates_ctrl].copy()
-        jumped = np.max(np.abs(commands - self.jump_last), axis=1) > self.jump_threshold
+        jumped = np.abs(commands - self.jump_last).max(axis=1) > self.jump_threshold
         self.jump_last = commands
         self.jump_until = np.where(jumped, self.time + self.jump_window, self.jump_until)
         refine = self.time < self.jump_until - 1e-9 * self.jump_window
