@@ -151,6 +151,7 @@ def batch_against_singles(scenarios) -> None:
     return batched
 
 
+@pytest.mark.slow
 def test_a_flagship_like_batch_is_each_world_run_alone():
     """The flagship's spin-up with other rates, servo frequencies and rate limits in each world."""
     worlds = [([0.3, -0.2, 0.05], 0.1, 10.0), ([-0.2, 0.3, 0.0], 0.3, 8.0), ([0.1, 0.1, -0.2], 0.05, 12.0),
@@ -163,6 +164,7 @@ def test_a_flagship_like_batch_is_each_world_run_alone():
     assert len({r.metrics["spin_error_final_deg_s"] for r in batched}) == len(worlds)
 
 
+@pytest.mark.slow
 def test_a_reorient_minimax_like_batch_is_each_world_run_alone():
     """Slews of other angles and axes, a gimbal torque limit in one world."""
     worlds = [(45, "[1, 0, 0]", []), (70, "[0, 0.6, 0.8]", ["model.gimbal_torque_limit_nm=2.0"]),

@@ -1,8 +1,8 @@
 """The CMG plants of a batch's live worlds on (N, ...) arrays (`CmgPlant.group_form`).
 
-Each tick the worlds' qpos, qvel, act and clocks are read into (N, ...) buffers once (one
-`np.concatenate` per array, the state unchanged between the allocator's read-out, the command
-and the trace sample), the gimbal servos' per-tick arithmetic (gimbal_servo.py) runs on them, and
+Each tick the worlds' qpos, qvel, act and clocks are read into (N, ...) arrays once (one
+`np.concatenate` per array: the state does not change between the allocator's read-out, the
+command and the trace sample), the gimbal servos' per-tick arithmetic (gimbal_servo.py) runs on them, and
 each world's ctrl row is written back whole. The jumps that refine a tick (jump_refinement.py)
 are found on the commands as arrays; the physics stays one `mj_step` call per world
 (docs/validation.md "Measured times": a thread pool, `mujoco.rollout` and `mujoco.batch` were no
@@ -21,7 +21,6 @@ import math
 import numpy as np
 
 from testbed.batch.plant_group import PerWorldPlants
-from testbed.batch.stage_forms import WorldsFailed
 from testbed.systems.cmg_cluster.faults import FAULT_CODES
 from testbed.systems.cmg_cluster.gimbal_servo import FeedForwardServo
 
@@ -46,7 +45,7 @@ def cmg_plant_group(plants: list, steps: int):
 def _layout(plant) -> tuple:
     """What must be alike for one column of an (N, ...) buffer to be the same quantity in every world."""
     bus, model = plant.bus, plant.model
-    return (model.nq, model.nv, model.na, model.nu, bus.omega_dofs, bus.quat_coords, bus.gimbal_qpos, bus.gimbal_qvel,
+    return (model.nq, model.nv, model.na, model.nu, bus.bus_body_id, bus.omega_dofs, bus.quat_coords, bus.gimbal_qpos, bus.gimbal_qvel,
             bus.rotor_qvel, bus.gimbal_act, bus.gimbal_ctrl, bus.gimbal_servo_ctrl,
             tuple(bus.rotor_actuator_ids.tolist()), tuple(bus.torque_actuator_ids.tolist()))
 
@@ -74,10 +73,10 @@ class CmgPlantGroup(PerWorldPlants):
         self._fast_truth = not any(p.record_energy or p.surroundings is not None or p.appendages is not None
                                    for p in self.plants)
         self._gather()
-        self._fresh = False  # whether the state buffers hold the worlds' state now
+        self._fresh = False  # whether qpos, qvel, act and time hold the worlds' state now
 
     def _gather(self) -> None:
-        """(Re)build the per-world views and the servos' and jump refinements' state as rows."""
+        """The per-world views, and the servos' and jump refinements' state as rows."""
         plants, n = self.plants, self.units
         datas = [plant.data for plant in plants]
         self._datas, self._models = datas, [plant.model for plant in plants]
