@@ -22,7 +22,7 @@ from testbed.systems.cmg_cluster.faults import FaultEvent
 from testbed.systems.cmg_cluster.plant import CmgPlant
 from testbed.systems.cmg_cluster.plants_group import GROUP_FROM_WORLDS, CmgPlantGroup
 from testbed.systems.cmg_rhombus import CmgRhombusParams, build
-from tests.test_batch_lockstep import agree
+from tests.test_batch_lockstep import FailingGyro, agree
 
 ROW_REL = 1e-12
 DT, TC = 0.01, 0.05
@@ -175,3 +175,21 @@ def test_a_reorient_minimax_like_batch_is_each_world_run_alone():
                                                    *more])
                  for angle, axis, more in worlds]
     batch_against_singles(scenarios)
+
+
+def test_a_world_that_fails_leaves_the_group_and_the_others_go_on():
+    """The group drops the failed world's rows (keep) and writes its servo back (settle): the
+    world's truth where it stopped, and its mates' runs after it, are their single runs'."""
+    overrides = ["sim.duration_s=8"]  # the flagship's gyro axis is (1, 1, 1)/sqrt(3), as FailingGyro's
+    scenarios = [testbed.load("lebedev_spinup_cmg", overrides + [f"initial.omega_deg_s=[{w}, 0.1, 0.0]"])
+                 for w in (0.2, 0.3, 0.4, 0.5, -0.2)]
+    after = (99.0, 2.5, 99.0, 4.05, 99.0)  # two worlds fail, one mid-block
+    singles = [testbed.run(s, stages={"sensor": FailingGyro(a)}) for s, a in zip(scenarios, after)]
+    with Batch([prepare(s, {"sensor": FailingGyro(a)}) for s, a in zip(scenarios, after)]) as batch:
+        assert isinstance(batch.group, CmgPlantGroup)
+        batch.advance(batch.timing.n_ticks)
+        batched = batch.finish()
+    assert [r.status for r in batched] == ["ok", "error", "ok", "error", "ok"]
+    for single, world in zip(singles, batched):
+        agree(single, world)
+    assert batched[1].sim_s == singles[1].sim_s < batched[3].sim_s == singles[3].sim_s < batched[0].sim_s
