@@ -22,7 +22,7 @@ from testbed.systems.cmg_cluster.faults import FaultEvent
 from testbed.systems.cmg_cluster.plant import CmgPlant
 from testbed.systems.cmg_cluster.plants_group import GROUP_FROM_WORLDS, CmgPlantGroup
 from testbed.systems.cmg_rhombus import CmgRhombusParams, build
-from tests.test_batch_lockstep import FailingGyro, agree
+from tests.test_batch_lockstep import FailingGyro, agree, campaign_scenarios
 
 ROW_REL = 1e-12
 DT, TC = 0.01, 0.05
@@ -193,3 +193,12 @@ def test_a_world_that_fails_leaves_the_group_and_the_others_go_on():
     for single, world in zip(singles, batched):
         agree(single, world)
     assert batched[1].sim_s == singles[1].sim_s < batched[3].sim_s == singles[3].sim_s < batched[0].sim_s
+
+
+@pytest.mark.slow
+def test_a_fault_campaign_batch_is_each_case_run_alone():
+    """Cases of the fault campaign through the group (a sensor bias, a motor off, a sensor dropout
+    and a spin-down, drawn on other units at other times): each as its case alone runs it."""
+    scenarios = campaign_scenarios("reorient_fault_campaign", [4, 5, 6, 7], ["sim.duration_s=45"])
+    batched = batch_against_singles(scenarios)
+    assert len({r.metrics["final_attitude_error_deg"] for r in batched}) == 4
