@@ -154,7 +154,7 @@ class Batch:
             failed = {row: diverged.get(row, exc) if isinstance(exc, StageFailed) else exc
                       for row, exc in failed.items()}
         for row, exc in sorted(failed.items()):
-            for form in self.forms.values():
+            for form in (*self.forms.values(), self.group):
                 form.settle(row)
             self._ended(live[row], exc)
         kept = np.array([row for row in range(len(live)) if row not in failed], dtype=int)
@@ -171,7 +171,7 @@ class Batch:
         if exc is None:
             for row, live_world in enumerate(self.live.tolist()):
                 if live_world == world:
-                    for form in self.forms.values():
+                    for form in (*self.forms.values(), self.group):
                         form.settle(row)
             run.reached(self.timing.n_ticks)
         else:
@@ -180,7 +180,11 @@ class Batch:
             run.stop(exc)
 
     def finish(self) -> list:
-        """Each world's RunResult, in the order of the plans."""
+        """Each world's RunResult, in the order of the plans (a world still going, its plant's
+        state written back first: its result samples the truth where it stopped)."""
+        if self.running:
+            for row in range(len(self.live)):
+                self.group.settle(row)
         return [run.finish() for run in self.runs]
 
 

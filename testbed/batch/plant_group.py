@@ -26,6 +26,10 @@ class PerWorldPlants:
         self.plants = [self.plants[i] for i in rows]
         self.steppers = [self.steppers[i] for i in rows]
 
+    def settle(self, row: int) -> None:
+        """Nothing to write back: each world's plant is its own (a group whose rows hold a plant's
+        state writes it back into row's plant here, before its run's last truth sample)."""
+
     def _each(self, read, fill, combine):
         """combine([read(plant) of every live world]); a world whose read-outs overflow (its state
         blew up) fails, its row filled by `fill(a live world's value)`."""

@@ -139,6 +139,21 @@ class FreeBus:
         rot = data.xmat[self.bus_body_id].reshape(3, 3)
         return rot.T @ (data.subtree_com[self.bus_body_id] - data.xpos[self.bus_body_id])
 
+    def total_angular_momenta_world(self, models, datas, out: np.ndarray) -> np.ndarray:
+        """`total_angular_momentum_world` of many worlds of this layout, into the rows of `out`
+        (N, 3) [N m s]: the same MuJoCo calls (`refresh` without the mass matrix, then
+        mj_subtreeVel) in one loop, without a method call per world (a batch's trace sample)."""
+        kinematics, com_pos, com_vel, subtree_vel = (mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_comVel,
+                                                     mujoco.mj_subtreeVel)
+        body = self.bus_body_id
+        for row, (model, data) in enumerate(zip(models, datas)):
+            kinematics(model, data)
+            com_pos(model, data)
+            com_vel(model, data)
+            subtree_vel(model, data)
+            out[row] = data.subtree_angmom[body]
+        return out
+
     def total_angular_momentum_world(self, data):
         """Angular momentum of the whole spacecraft about its CoM, world frame [N m s]
         (mj_subtreeVel fills subtree_angmom from the refreshed kinematics and velocities; it

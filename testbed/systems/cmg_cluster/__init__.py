@@ -6,6 +6,7 @@ and the CMG machinery every single-gimbal system runs on (the seed's rhombus, te
 - units.py    the units' common fields (`CmgUnitsParams`) and `compile_units`, which places and sizes them
 - cluster.py  the cluster geometry H(beta), dH/dbeta read from the compiled model
 - plant.py    joints and servos by name; the plant the runner steps
+- plants_group.py     many worlds' plants in a batch on (N, ...) arrays: the servos' tick vectorised
 - gimbal_servo.py     the gimbal-rate servos (intvelocity, feedforward) and where the momentum drift comes from
 - servo_tracking.py   the servo's miss of its held command, beyond the jumps (jump_refinement.py) it was handed
 - reduced_model.py    the reduced (gyrostat) model, reference `reduced_cmg`

@@ -31,6 +31,8 @@ class HybridPlant(CmgPlant):
     `wheel_momentum_body`. The internal momentum (the bus-rotation row of the mass matrix) holds
     gimbals, rotors and wheels alike."""
 
+    group_form = None  # its wheels are not in CmgPlant's group: a batch steps these worlds one by one
+
     def __init__(self, model, params, control_period: float, appendage_start=()):
         super().__init__(model, params, control_period, appendage_start)
         self.wheels = WheelDrive(model, self.data, params.wheels)  # their initial speeds are in the keyframe

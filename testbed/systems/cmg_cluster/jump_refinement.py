@@ -47,6 +47,10 @@ class JumpRefinement:
         if not self.refine_now():
             coarse()
             return
+        self.advance_fine(fine)
+
+    def advance_fine(self, fine) -> None:
+        """`fine()` (`factor` times the steps) at timestep / `factor`: a call in the window after a jump."""
         opt = self.model.opt
         dt = opt.timestep
         opt.timestep = dt / self.factor

@@ -19,6 +19,7 @@ from testbed.steering.singularity_type import DEGENERATE, ELLIPTIC, HYPERBOLIC, 
 from testbed.systems.cmg_cluster.cluster import ClusterGeometry, unit_count, unit_names
 from testbed.systems.cmg_cluster.faults import FAULT_CODES, FaultInjector
 from testbed.systems.cmg_cluster.gimbal_servo import FeedForwardServo, IntVelocityServo
+from testbed.systems.cmg_cluster.plants_group import cmg_plant_group
 from testbed.systems.cmg_cluster.jump_refinement import JUMP_FRACTION, JUMP_NO_LIMIT_RAD_S, JumpRefinement
 from testbed.systems.cmg_cluster.units import INITIAL_KEY, unit_actuator_names
 from testbed.systems.cmg_cluster.reduced_model import CmgMassModel
@@ -149,6 +150,7 @@ class CmgPlant(Plant):
     rates and the cluster momentum H (body frame)."""
 
     holds_internal_momentum = True
+    group_form = staticmethod(cmg_plant_group)  # many worlds' plants on (N, ...) arrays
 
     def __init__(self, model, params, control_period: float, appendage_start=()):
         """`params`: the validated parameters `model` was built from (CmgRhombusParams or
@@ -229,10 +231,16 @@ class CmgPlant(Plant):
             if self.surroundings is not None:
                 coarse, fine = super().stepper(nstep), super().stepper(nstep * self.jumps.factor)
             else:
-                coarse = functools.partial(mujoco.mj_step, self.model, self.data, nstep)
-                fine = functools.partial(mujoco.mj_step, self.model, self.data, nstep * self.jumps.factor)
+                coarse, fine = self.tick_steps(nstep)
             return self.jumps.stepper(coarse, fine)
         return functools.partial(self.step, nstep)
+
+    def tick_steps(self, nstep: int) -> tuple:
+        """(coarse, fine): MuJoCo's `nstep` physics steps, and `factor` times as many (at the
+        timestep JumpRefinement.advance_fine sets), with no check for a bad state and nothing
+        else: the steps of a plant neither in orbit nor with unbalanced rotors."""
+        return (functools.partial(mujoco.mj_step, self.model, self.data, nstep),
+                functools.partial(mujoco.mj_step, self.model, self.data, nstep * self.jumps.factor))
 
     def initialise(self, initial) -> None:
         self.bus.initialise(self.data, initial.omega, initial.quat)
