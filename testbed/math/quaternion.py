@@ -1,6 +1,8 @@
 """Quaternion algebra in MuJoCo's convention: q = (w, x, y, z), Hamilton product.
 
-`q` maps body-frame vectors to the world frame: v_world = q ∘ v_body ∘ q~.
+`q` maps body-frame vectors to the world frame: v_world = q ∘ v_body ∘ q~. Every function but
+`quat_to_matrix` also takes arrays of them with leading axes (..., 4) / (..., 3): one row per
+world of a batch (testbed.batch).
 """
 
 import mujoco
@@ -27,9 +29,11 @@ def quat_conj(q):
 
 
 def quat_from_axis_angle(axis, angle):
-    """Unit quaternion cos(angle/2) + axis sin(angle/2); `axis` must be a unit vector."""
+    """Unit quaternion cos(angle/2) + axis sin(angle/2); `axis` must be a unit vector (..., 3),
+    `angle` [rad] a number or an array (..., 1)."""
     axis = np.asarray(axis, dtype=float)
-    return np.concatenate([[np.cos(angle / 2)], np.sin(angle / 2) * axis])
+    half = np.asarray(angle, dtype=float) / 2
+    return np.concatenate([np.cos(half) * np.ones_like(axis[..., :1]), np.sin(half) * axis], axis=-1)
 
 
 def quat_rotate(q, v):
@@ -56,19 +60,20 @@ def quat_to_matrix(q):
 
 
 def quat_from_rotation_vector(theta):
-    """Unit quaternion exp(theta/2) = (cos |theta|/2, sin(|theta|/2) theta/|theta|) of a rotation vector [rad]."""
+    """Unit quaternion exp(theta/2) = (cos |theta|/2, sin(|theta|/2) theta/|theta|) of a rotation
+    vector [rad] (..., 3); (1, 0, 0, 0) for theta = 0."""
     theta = np.asarray(theta, dtype=float)
-    angle = float(np.linalg.norm(theta))
-    if angle == 0.0:
-        return np.array([1.0, 0.0, 0.0, 0.0])
-    return quat_from_axis_angle(theta / angle, angle)
+    angle = np.sqrt(np.sum(theta * theta, axis=-1, keepdims=True))
+    axis = np.divide(theta, angle, out=np.zeros_like(theta), where=angle > 0)
+    return quat_from_axis_angle(axis, angle)
 
 
 def rotation_vector(q):
-    """theta = angle * axis of unit quaternion q, the short way (angle in [0, pi]) [rad]."""
+    """theta = angle * axis of unit quaternion q (..., 4), the short way (angle in [0, pi]) [rad];
+    zeros for the identity."""
     q = np.asarray(q, dtype=float)
-    q = q if q[0] >= 0 else -q
-    s = float(np.linalg.norm(q[1:]))
-    if s == 0.0:
-        return np.zeros(3)
-    return 2.0 * np.arctan2(s, q[0]) * q[1:] / s
+    w, v = q[..., :1], q[..., 1:]
+    v = np.where(w < 0, -v, v)  # -q is the same attitude: take the one with w >= 0
+    s = np.sqrt(np.sum(v * v, axis=-1, keepdims=True))
+    turned = 2.0 * np.arctan2(s, np.abs(w)) * v
+    return np.divide(turned, s, out=np.zeros_like(turned), where=s > 0)
