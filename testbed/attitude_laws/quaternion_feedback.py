@@ -15,7 +15,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from testbed.attitude_laws.regulation import Regulator, TargetParams
-from testbed.math.matvec import matvec
 from testbed.pipeline import stage
 from testbed.scenario.schema import param
 
@@ -48,5 +47,5 @@ class QuaternionFeedback(Regulator):
         limited = size > self.limit
         wanted = wanted * (self.limit / np.maximum(size, self.limit))  # (x 1 exactly when not limited)
         momentum = inputs["internal_momentum"]
-        torque = -matvec(self.inertia, self.c * (wanted + omega)) + self.gyroscopic(omega, momentum)
+        torque = -np.matvec(self.inertia, self.c * (wanted + omega)) + self.gyroscopic(omega, momentum)
         return self.signals(torque, error, momentum) | {"rate_limited": limited.astype(float)}

@@ -9,7 +9,6 @@ import numpy as np
 from testbed.attitude_laws.momentum_input import DESIGN, INPUT, check_allocator
 from testbed.batch.stacked_stages import StatelessForm
 from testbed.math.cross import cross3
-from testbed.math.matvec import matvec
 from testbed.math.quaternion import quat_conj, quat_from_axis_angle, quat_mul, rotation_vector
 from testbed.math.validation import check_unit_vector
 from testbed.pipeline import require_attitude_estimate, require_free_body
@@ -62,7 +61,7 @@ class Regulator:
 
     def gyroscopic(self, omega, momentum) -> np.ndarray:
         """ω × (I ω + H) [N m]."""
-        return cross3(omega, matvec(self.inertia, omega) + momentum)
+        return cross3(omega, np.matvec(self.inertia, omega) + momentum)
 
     def signals(self, torque, error, momentum) -> dict:
         """What a regulator records: `torque`, the error as a rotation vector `attitude_error` [rad]

@@ -5,9 +5,12 @@ A stage class that is written on arrays with leading axes (its numbers broadcast
 parameter as (N, 1), a vector as (N, 3), a matrix as (N, 3, 3)) declares the attributes its method
 reads per world (`Stacked`), and its `batched` classmethod gives `StatelessForm(stages, slot,
 those names)`. Each piece of math then exists once: the single run calls the same method on
-its own unstacked attributes. A row that turns non-finite, or that the method refuses, is
-replayed on that world's own stage under the single run's floating-point rules: its failure
-(or, were the batched arithmetic alone to blame, its output) is the single run's, word for word.
+its own unstacked attributes. The rows are computed under the single run's floating-point rules
+(overflow, invalid and division raise); when the method raises on them (one row's overflow, a
+check of its inputs that one row fails), every world's own stage is run instead that tick, and
+a row that comes out non-finite is replayed on its world's own stage: a failure (or, were the
+batched arithmetic alone to blame, an output) is the single run's, word for word. Replaying is
+sound because the stage keeps no state from tick to tick.
 """
 
 from __future__ import annotations
@@ -82,11 +85,11 @@ class StatelessForm:
     def _call(self, t: float, *given):
         """given: the method's arguments after t, dicts of (N, ...) rows (a sensor's: the plants)."""
         count = len(self.stages)
-        try:
-            with np.errstate(all="ignore"):
+        try:  # under the single run's rules: an overflow inside, even one that ends finite, fails a world
+            with np.errstate(over="raise", invalid="raise", divide="raise"):
                 outputs = self.method(self.rows, t, *given)
-                bad = nonfinite_rows(outputs)
-        except Exception:  # noqa: BLE001  (each world's own stage says whose input it was)
+            bad = nonfinite_rows(outputs)
+        except Exception:  # noqa: BLE001  (each world's own stage says whose row it was)
             outputs, bad = None, np.arange(count)
         if not len(bad):
             return outputs

@@ -279,8 +279,7 @@ def relative_rotation(axes, psi, dpsi, ddpsi):
     # All ten products D[k1,0] D[k2,1] D[k3,2] with k1 + k2 + k3 <= 2 in one broadcast call.
     k = _ORDERS
     prods = quat_mul(quat_mul(D[..., k[:, 0], 0, :], D[..., k[:, 1], 1, :]), D[..., k[:, 2], 2, :])
-    second = np.sum(_SECOND_WEIGHTS[:, None] * prods[..., 4:, :], axis=-2)  # (not matmul: see testbed.math.matvec)
-    return prods[..., 0, :], prods[..., 1:4, :].sum(axis=-2), second
+    return prods[..., 0, :], prods[..., 1:4, :].sum(axis=-2), np.vecmat(_SECOND_WEIGHTS, prods[..., 4:, :])
 
 
 def program_state(q_ref, lam, dlam, ddlam):

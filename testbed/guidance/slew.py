@@ -32,7 +32,6 @@ from testbed.guidance.program_trajectory import ProgramTrajectory, ProgramWorlds
 from testbed.guidance.rest_to_rest_profiles import NO_SHAPER, RestToRestProfile
 from testbed.math.cross import cross3
 from testbed.guidance.tracking_law import TrackingLaw, TrackingWorlds
-from testbed.math.matvec import matvec
 from testbed.math.validation import check_unit_vector
 from testbed.pipeline import require_attitude_estimate, require_free_body, stage
 from testbed.math.quaternion import quat_conj, quat_from_axis_angle, quat_mul, rotation_vector
@@ -177,5 +176,5 @@ class Slew:
         q_p, w_p, dw_p = self.program.state(tau)
         error = rotation_vector(dq)
         return {"torque": torque, "program_quat": q_p, "program_omega": w_p,
-                "program_torque": matvec(self.inertia, dw_p) + cross3(w_p, matvec(self.inertia, w_p)),
+                "program_torque": np.matvec(self.inertia, dw_p) + cross3(w_p, np.matvec(self.inertia, w_p)),
                 "attitude_error": error, "error_angle": np.sqrt(np.sum(error * error, axis=-1, keepdims=True))}

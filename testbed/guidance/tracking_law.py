@@ -26,7 +26,6 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.math.cross import cross3
-from testbed.math.matvec import matvec
 from testbed.math.validation import UNIT_TOLERANCE, finite_number, inertia_matrix, unit_quaternion, vector3
 from testbed.math.quaternion import quat_conj, quat_mul, quat_rotate
 
@@ -75,7 +74,7 @@ class TrackingLaw:
 
     def _pd(self, dq, dw):
         sign = np.where(dq[..., :1] >= 0, 1.0, -1.0)  # the short way round: q and -q are one attitude
-        return -matvec(self.kp, sign * dq[..., 1:]) - matvec(self.kd, dw)
+        return -np.matvec(self.kp, sign * dq[..., 1:]) - np.matvec(self.kd, dw)
 
     def __call__(self, t, q_est, w_est) -> np.ndarray:
         """Wanted body torque M [N m] for the estimated attitude q_est and body rate w_est."""
@@ -86,7 +85,7 @@ class TrackingLaw:
         dq, dw, w_d, acc_p = self._errors(t, q_est, w_est)
         w = dw + w_d
         acc_d = acc_p - cross3(dw, w_d)
-        return matvec(self.inertia, acc_d) + cross3(w, matvec(self.inertia, w)) + self._pd(dq, dw), dq, dw
+        return np.matvec(self.inertia, acc_d) + cross3(w, np.matvec(self.inertia, w)) + self._pd(dq, dw), dq, dw
 
 
 class TrackingWorlds(TrackingLaw):

@@ -1,0 +1,115 @@
+"""The attitude stages' batched forms (testbed.batch.stacked_stages) against the same worlds run
+one by one: quaternion and MRP feedback, the slew law (its program and tracking law on (N, ...)
+rows), ideal attitude sensing with each world's own noise, and the pass-through estimator and
+torque allocator.
+
+Every world here is not in the repository (other axes, angles, inertias, noise seeds, start
+times). Tolerance: `agree`'s BATCHED_REL = 1e-9 of each metric (ABS_FLOOR at the round-off
+floor). The forms run each world's own arithmetic in the same order (no matmul kernel that
+differs between one matrix and a stack: testbed.math.matvec), so the rows come out equal to
+the bit as measured; the tolerance is the contract's, from the metrics' conditioning (end
+errors of 1e-6 rad amplified through a few hundred closed-loop ticks).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import testbed
+from test_batch_lockstep import agree
+from testbed.batch import Batch
+from testbed.batch.stage_forms import PerWorld, WorldsFailed
+from testbed.run_core.plan import prepare
+from testbed.scenario.loading import parse
+
+RIGID = {"name": "mrp_worlds", "model": {"system": "satellite", "inertia_kg_m2": [800, 1000, 1200], "mass_kg": 500},
+         "initial": {"quat": [1, 0, 0, 0]}, "sim": {"duration_s": 30, "dt_s": 0.01, "control_period_s": 0.05},
+         "pipeline": {"sensor": {"type": "ideal_attitude"}, "estimator": {"type": "attitude"},
+                      "allocator": {"type": "ideal_torque"}}}
+AXES = ([1.0, 0.0, 0.0], [0.0, 0.6, 0.8], [0.48, -0.6, 0.64], [-0.36, 0.48, 0.8])
+
+
+def batched_and_singles(scenarios):
+    """(each world's single result, the batch's results, the batch's forms by slot)."""
+    singles = [testbed.run(scenario) for scenario in scenarios]
+    with Batch([prepare(scenario) for scenario in scenarios]) as batch:
+        forms = dict(batch.forms)
+        batch.advance(batch.timing.n_ticks)
+        return singles, batch.finish(), forms
+
+
+def mrp_world(i: int, axis):
+    law = {"type": "mrp_feedback", "gain_k_nm": 60.0 + 10 * i, "gain_p_nms": 150.0 + 20 * i, "axis": axis,
+           "angle_deg": 20.0 + 25 * i, "start_s": 0.5 * i}
+    sensor = {"type": "ideal_attitude", "attitude_noise_rad": 1e-5 * (i % 2), "rate_noise_rad_s": 2e-6,
+              "seed": 100 + i}
+    model = RIGID["model"] | {"inertia_kg_m2": [700 + 60 * i, 1000, 1300 - 40 * i]}
+    return parse(RIGID | {"model": model, "pipeline": RIGID["pipeline"] | {"law": law, "sensor": sensor}}, "mrp_worlds")
+
+
+def test_mrp_worlds_with_their_own_noise_are_each_world_run_alone():
+    singles, batched, forms = batched_and_singles([mrp_world(i, axis) for i, axis in enumerate(AXES)])
+    assert not any(isinstance(form, PerWorld) for form in forms.values())  # every slot batched
+    for single, world in zip(singles, batched):
+        agree(single, world)
+    # the worlds differ (another world's numbers or noise would not pass above)
+    assert len({world.metrics["final_pointing_error_deg"] for world in batched}) == len(AXES)
+
+
+def test_quaternion_feedback_worlds_are_each_world_run_alone():
+    scenarios = [testbed.load("slew_quaternion_feedback_ideal", [
+        "sim.duration_s=25", f"pipeline.law.axis={axis}", f"pipeline.law.angle_deg={-50 + 35 * i}",
+        f"pipeline.law.rate_limit_deg_s={1.0 + 0.5 * i}", f"model.inertia_kg_m2=[{650 + 80 * i}, 1000, 1200]"])
+        for i, axis in enumerate(AXES)]
+    singles, batched, forms = batched_and_singles(scenarios)
+    assert {slot: type(forms[slot]).__name__ for slot in ("sensor", "estimator", "law")} == {
+        "sensor": "IdealAttitudeWorlds", "estimator": "StatelessForm", "law": "StatelessForm"}
+    for single, world in zip(singles, batched):
+        agree(single, world)
+
+
+@pytest.mark.slow
+def test_slew_worlds_with_other_programs_are_each_world_run_alone():
+    # cubic and versine programs side by side, other start times, axes, angles and inertias
+    scenarios = [testbed.load("reorient_minimax", [
+        "sim.duration_s=15", f"pipeline.law.axis={axis}", f"pipeline.law.angle_deg={35 + 20 * i}",
+        f"pipeline.law.duration_s={12 + 2 * i}", f"pipeline.law.start_s={1 + i}",
+        f"pipeline.law.profile={'versine' if i % 2 else 'cubic'}",
+        f"model.inertia_kg_m2=[{700 + 50 * i}, 1000, {1250 - 30 * i}]"]) for i, axis in enumerate(AXES)]
+    singles, batched, forms = batched_and_singles(scenarios)
+    assert type(forms["law"]).__name__ == "StatelessForm"
+    for single, world in zip(singles, batched):
+        agree(single, world)
+
+
+def law_form_and_stages(scenarios):
+    stages = [prepare(scenario).pipeline.law for scenario in scenarios]
+    return type(stages[0]).batched(stages), stages
+
+
+@pytest.mark.parametrize("name", ["slew_quaternion_feedback_ideal", "reorient_minimax"])
+def test_a_bad_estimate_fails_its_world_alone_as_its_single_run_would(name):
+    scenarios = [testbed.load(name, [f"pipeline.law.axis={axis}"]) for axis in AXES[:3]]
+    form, stages = law_form_and_stages(scenarios)
+    rng = np.random.default_rng(5)
+    quat = rng.normal(size=(3, 4))
+    quat /= np.linalg.norm(quat, axis=1, keepdims=True)
+    estimate = {"quat": quat, "omega": rng.normal(scale=0.01, size=(3, 3)), "internal_momentum": np.zeros((3, 3))}
+    estimate["quat"][1] = [1e200, 1e200, 0.0, 0.0]  # overflows the law's products (or its unit check)
+    with np.errstate(over="raise", invalid="raise", divide="raise"), pytest.raises(WorldsFailed) as caught:
+        form.torque(12.0, estimate)
+    assert list(caught.value.failures) == [1]
+    # the world's own stage, as its single run's tick reports it
+    pipeline = prepare(scenarios[1]).pipeline
+    given = {key: value[1] for key, value in estimate.items()}
+    with np.errstate(over="raise", invalid="raise", divide="raise"), pytest.raises(Exception) as alone:
+        stages[1].torque(12.0, given)
+    with pytest.raises(Exception) as expected:
+        pipeline._raise_failure(12.0, "law", alone.value)
+    assert str(caught.value.failures[1]) == str(expected.value)
+    # its batch-mates' rows are their own stages' outputs
+    for row in (0, 2):
+        own = stages[row].torque(12.0, {key: value[row] for key, value in estimate.items()})
+        for key, value in own.items():
+            np.testing.assert_array_equal(caught.value.outputs[key][row], value)
