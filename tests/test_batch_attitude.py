@@ -113,3 +113,36 @@ def test_a_bad_estimate_fails_its_world_alone_as_its_single_run_would(name):
         own = stages[row].torque(12.0, {key: value[row] for key, value in estimate.items()})
         for key, value in own.items():
             np.testing.assert_array_equal(caught.value.outputs[key][row], value)
+
+
+def mekf_world(i: int, axis, extra=()):
+    return testbed.load("slew_quaternion_feedback_mekf", [
+        "sim.duration_s=20", f"pipeline.law.axis={axis}", f"pipeline.law.angle_deg={30 + 20 * i}",
+        f"pipeline.sensor.star_tracker.seed={300 + i}", f"pipeline.sensor.gyro.seed={400 + i}",
+        f"pipeline.sensor.gyro.initial_bias_rad_s=[{-1e-4 * i}, 5e-5, {3e-5 * i}]",
+        f"pipeline.estimator.first_fix={'tracker' if i == 3 else 'scenario'}", *extra])
+
+
+def test_mekf_worlds_with_their_own_sensors_are_each_world_run_alone():
+    # other noise seeds, biases, slews; one world starts from the tracker's first fix, one has an outage
+    scenarios = [mekf_world(i, axis, ["pipeline.sensor.star_tracker.outages_s=[[4, 7.5]]"] if i == 1 else [])
+                 for i, axis in enumerate(AXES)]
+    singles, batched, forms = batched_and_singles(scenarios)
+    assert {slot: type(forms[slot]).__name__ for slot in ("sensor", "estimator")} == {
+        "sensor": "StarTrackerGyroWorlds", "estimator": "MekfWorlds"}
+    for single, world in zip(singles, batched):
+        agree(single, world)
+    assert len({world.metrics["final_pointing_error_deg"] for world in batched}) == len(AXES)
+
+
+def test_a_filter_that_coasts_past_its_bound_fails_its_world_alone():
+    # an angle random walk of 1e-3 rad/s^0.5 with the tracker out from 4 s: the attitude 3-sigma
+    # passes the filter's first-order bound sqrt(2 sigma_tracker) = 0.40 deg after about 5 s of coasting
+    noisy = ["pipeline.sensor.gyro.angle_random_walk_rad_sqrt_s=1e-3",
+             "pipeline.sensor.star_tracker.outages_s=[[4, 100]]"]
+    scenarios = [mekf_world(0, AXES[0]), mekf_world(1, AXES[1], noisy), mekf_world(2, AXES[2])]
+    singles, batched, _ = batched_and_singles(scenarios)
+    assert [world.status for world in batched] == ["ok", "method_failed", "ok"]
+    assert "no star tracker fix" in batched[1].error
+    for single, world in zip(singles, batched):
+        agree(single, world)

@@ -98,13 +98,16 @@ class PerWorld:
 
 def form_of(slot: str, pipelines: list):
     """The slot's form on the worlds of `pipelines`: the stages' batched form when every world's
-    stage is of one built-in class that declares one and none has an output check, else `PerWorld`."""
+    stage is of one built-in class that declares one, none has an output check and the class
+    gives one for these worlds (its `batched` may answer None: e.g. options it does not batch),
+    else `PerWorld`."""
     stages = [pipeline.stages()[slot] for pipeline in pipelines]
     kinds = {type(stage) for stage in stages}
     declared = pipelines[0].declared[slot]
+    form = None
     if len(kinds) == 1 and declared.batched is not None and not any(slot in p.checks for p in pipelines):
-        return declared.batched(stages)
-    return PerWorld(slot, pipelines)
+        form = declared.batched(stages)
+    return PerWorld(slot, pipelines) if form is None else form
 
 
 def forms_of(pipelines: list) -> dict:

@@ -65,7 +65,8 @@ def quat_from_rotation_vector(theta):
     theta = np.asarray(theta, dtype=float)
     angle = np.sqrt(np.sum(theta * theta, axis=-1, keepdims=True))
     axis = np.divide(theta, angle, out=np.zeros_like(theta), where=angle > 0)
-    return quat_from_axis_angle(axis, angle)
+    half = angle / 2
+    return np.concatenate([np.cos(half), np.sin(half) * axis], axis=-1)
 
 
 def rotation_vector(q):
@@ -73,7 +74,7 @@ def rotation_vector(q):
     zeros for the identity."""
     q = np.asarray(q, dtype=float)
     w, v = q[..., :1], q[..., 1:]
-    v = np.where(w < 0, -v, v)  # -q is the same attitude: take the one with w >= 0
     s = np.sqrt(np.sum(v * v, axis=-1, keepdims=True))
-    turned = 2.0 * np.arctan2(s, np.abs(w)) * v
-    return np.divide(turned, s, out=np.zeros_like(turned), where=s > 0)
+    # -q is the same attitude: the one with w >= 0 turns the short way
+    scale = np.where(w < 0, -2.0, 2.0) * np.arctan2(s, np.abs(w))
+    return np.divide(scale * v, s, out=np.zeros_like(v), where=s > 0)

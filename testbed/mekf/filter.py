@@ -22,67 +22,83 @@ from testbed.math.quaternion import quat_conj, quat_from_rotation_vector, quat_m
 
 I3 = np.eye(3)
 H = np.hstack([I3, np.zeros((3, 3))])
+# w Δt below this: Φ by its series to second order (the closed form loses digits there)
+SERIES_BELOW = 1e-6
 
 
 def skew(v) -> np.ndarray:
-    """[v×]: skew(v) @ u = v × u."""
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    """[v×] (..., 3, 3) of v (..., 3): skew(v) @ u = v × u."""
+    v = np.asarray(v, float)
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    zero = np.zeros_like(x)
+    return np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1), np.stack([-y, x, zero], -1)], -2)
 
 
-def transition(omega: np.ndarray, dt: float) -> np.ndarray:
-    """Φ of the error state over dt at the held rate omega (module doc)."""
-    w = float(np.linalg.norm(omega))
+def transposed(m) -> np.ndarray:
+    """The transposes of (..., r, c) matrices."""
+    return np.swapaxes(m, -1, -2)
+
+
+def transition(omega, dt) -> np.ndarray:
+    """Φ (..., 6, 6) of the error state over dt [s] (a number or (...,)) at the held rate omega
+    (..., 3) [rad/s] (module doc)."""
+    dt = np.asarray(dt, float)[..., None, None]
+    w = np.sqrt(np.sum(omega * omega, axis=-1))[..., None, None]
     cross = skew(omega)
-    phi = np.eye(6)
-    if w * dt < 1e-6:  # the series to second order: the closed form loses digits here
-        phi[:3, :3] = I3 - cross * dt + cross @ cross * dt**2 / 2
-        phi[:3, 3:] = -I3 * dt + cross * dt**2 / 2 - cross @ cross * dt**3 / 6
-        return phi
+    square = cross @ cross
+    series = w * dt < SERIES_BELOW
+    w = np.where(series, 1.0, w)  # (the closed form's w, where it is not used: no division by 0)
     s, c = np.sin(w * dt), np.cos(w * dt)
-    phi[:3, :3] = I3 - cross * s / w + cross @ cross * (1 - c) / w**2
-    phi[:3, 3:] = cross * (1 - c) / w**2 - I3 * dt - cross @ cross * (w * dt - s) / w**3
-    return phi
+    top_left = np.where(series, I3 - cross * dt + square * dt**2 / 2, I3 - cross * s / w + square * (1 - c) / w**2)
+    top_right = np.where(series, -I3 * dt + cross * dt**2 / 2 - square * dt**3 / 6,
+                         cross * (1 - c) / w**2 - I3 * dt - square * (w * dt - s) / w**3)
+    bottom = np.broadcast_to(np.hstack([np.zeros((3, 3)), I3]), top_left.shape[:-2] + (3, 6))
+    return np.concatenate([np.concatenate([top_left, top_right], -1), bottom], -2)
 
 
-def process_noise(arw: float, rrw: float, dt: float) -> np.ndarray:
-    """Q over dt for angle random walk σ_v and rate random walk σ_u (module doc)."""
-    q = np.zeros((6, 6))
-    q[:3, :3] = (arw**2 * dt + rrw**2 * dt**3 / 3) * I3
-    q[:3, 3:] = q[3:, :3] = -rrw**2 * dt**2 / 2 * I3
-    q[3:, 3:] = rrw**2 * dt * I3
-    return q
+def process_noise(arw, rrw, dt) -> np.ndarray:
+    """Q (..., 6, 6) over dt [s] for angle random walk σ_v and rate random walk σ_u (numbers or
+    (...,) arrays) (module doc)."""
+    arw, rrw, dt = (np.asarray(x, float)[..., None, None] for x in (arw, rrw, dt))
+    angle = (arw**2 * dt + rrw**2 * dt**3 / 3) * I3
+    cross = -rrw**2 * dt**2 / 2 * I3
+    rate = rrw**2 * dt * I3
+    return np.concatenate([np.concatenate([angle, cross], -1), np.concatenate([cross, rate], -1)], -2)
 
 
 class Mekf:
-    """The filter of the module doc; `arw`, `rrw` the gyro model it is tuned to."""
+    """The filter of the module doc; `arw`, `rrw` the gyro model it is tuned to. Its arithmetic
+    broadcasts over a leading axis of filters (quat (N, 4), bias (N, 3), covariance (N, 6, 6),
+    arw and rrw (N,)): the filters of a batch's worlds (testbed.mekf.worlds)."""
 
-    def __init__(self, quat, bias, covariance, arw: float, rrw: float):
-        self.quat = np.asarray(quat, float) / np.linalg.norm(quat)
+    def __init__(self, quat, bias, covariance, arw, rrw):
+        quat = np.asarray(quat, float)
+        self.quat = quat / np.sqrt(np.sum(quat * quat, axis=-1, keepdims=True))
         self.bias = np.array(bias, float)
         self.covariance = np.array(covariance, float)
         self.arw, self.rrw = arw, rrw
 
-    def propagate(self, rate: np.ndarray, dt: float) -> None:
-        """Advance over dt with the gyro's mean rate `rate` [rad/s] over that interval."""
+    def propagate(self, rate: np.ndarray, dt) -> None:
+        """Advance over dt [s] (a number or (N,)) with the gyro's mean rate `rate` [rad/s] over that interval."""
         omega = rate - self.bias
-        self.quat = quat_mul(self.quat, quat_from_rotation_vector(omega * dt))
+        self.quat = quat_mul(self.quat, quat_from_rotation_vector(omega * np.asarray(dt, float)[..., None]))
         phi = transition(omega, dt)
-        self.covariance = phi @ self.covariance @ phi.T + process_noise(self.arw, self.rrw, dt)
+        self.covariance = phi @ self.covariance @ transposed(phi) + process_noise(self.arw, self.rrw, dt)
 
     def innovation(self, measured) -> np.ndarray:
         """z = rotvec(q̂~ ∘ q̃) [rad, body axes] of a measured attitude q̃."""
         return rotation_vector(quat_mul(quat_conj(self.quat), measured))
 
-    def update(self, z: np.ndarray, noise: np.ndarray) -> float:
+    def update(self, z: np.ndarray, noise: np.ndarray):
         """The attitude update with innovation z and measurement covariance `noise` (module doc);
-        returns the normalised innovation squared zᵀ S⁻¹ z."""
+        returns the normalised innovation squared zᵀ S⁻¹ z (a number, or (N,))."""
         p = self.covariance
-        s = p[:3, :3] + noise
-        gain = np.linalg.solve(s, p[:3, :]).T  # P Hᵀ S⁻¹ (S, P symmetric)
-        dx = gain @ z
-        self.quat = quat_mul(self.quat, quat_from_rotation_vector(dx[:3]))
-        self.quat /= np.linalg.norm(self.quat)
-        self.bias = self.bias + dx[3:]
+        s = p[..., :3, :3] + noise
+        gain = transposed(np.linalg.solve(s, p[..., :3, :]))  # P Hᵀ S⁻¹ (S, P symmetric)
+        dx = np.matvec(gain, z)
+        quat = quat_mul(self.quat, quat_from_rotation_vector(dx[..., :3]))
+        self.quat = quat / np.sqrt(np.sum(quat * quat, axis=-1, keepdims=True))
+        self.bias = self.bias + dx[..., 3:]
         joseph = np.eye(6) - gain @ H
-        self.covariance = joseph @ p @ joseph.T + gain @ noise @ gain.T
-        return float(z @ np.linalg.solve(s, z))
+        self.covariance = joseph @ p @ transposed(joseph) + gain @ noise @ transposed(gain)
+        return np.sum(z * np.linalg.solve(s, z[..., None])[..., 0], axis=-1)
