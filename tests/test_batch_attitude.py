@@ -146,3 +146,27 @@ def test_a_filter_that_coasts_past_its_bound_fails_its_world_alone():
     assert "no star tracker fix" in batched[1].error
     for single, world in zip(singles, batched):
         agree(single, world)
+
+
+def test_a_filter_whose_numbers_overflow_fails_its_world_alone():
+    # a hostile world: a gyro reading of 1e300 rad/s overflows its filter's propagation (the
+    # covariance's products), which ends its single run; its batch-mates' filters go on
+    scenarios = [mekf_world(i, AXES[i]) for i in range(3)]
+    form = type(prepare(scenarios[0]).pipeline.estimator).batched(
+        [prepare(scenario).pipeline.estimator for scenario in scenarios])
+    alone = [prepare(scenario).pipeline.estimator for scenario in scenarios]
+    rng = np.random.default_rng(3)
+    measurement = {"gyro_stamp": np.full((3, 1), 0.1), "gyro_rate": rng.normal(scale=1e-3, size=(3, 3)),
+                   "tracker_new": np.zeros((3, 1)), "tracker_stamp": np.full((3, 1), -1.0),
+                   "tracker_quat": np.tile([1.0, 0.0, 0.0, 0.0], (3, 1))}
+    measurement["gyro_rate"][1] = [1e300, 0.0, 0.0]
+    with np.errstate(over="raise", invalid="raise", divide="raise"), pytest.raises(WorldsFailed) as caught:
+        form.estimate(0.1, measurement, {})
+    assert list(caught.value.failures) == [1]
+    with np.errstate(over="raise", invalid="raise", divide="raise"), pytest.raises(FloatingPointError) as own:
+        alone[1].estimate(0.1, {key: value[1] for key, value in measurement.items()}, {})
+    assert str(own.value) in str(caught.value.failures[1])
+    for row in (0, 2):
+        expected = alone[row].estimate(0.1, {key: value[row] for key, value in measurement.items()}, {})
+        for key, value in expected.items():
+            np.testing.assert_array_equal(caught.value.outputs[key][row], value)

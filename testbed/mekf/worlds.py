@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from testbed.batch.stacked_stages import failure_of
-from testbed.batch.stage_forms import WorldsFailed
+from testbed.batch.stage_forms import WorldsFailed, rows_of, stacked
 from testbed.mekf.filter import Mekf
 
 
@@ -70,6 +70,40 @@ class MekfWorlds:
         return result
 
     def estimate(self, t, measurement, command) -> dict:
+        """The worlds' estimates at t; when a row's arithmetic overflows or its covariance turns
+        singular (a raise under the single run's floating-point rules), the tick is run again
+        world by world on the worlds' own estimators, from the state before it, so that the
+        failing world ends as its single run does and the others go on."""
+        f = self.filter
+        before = (f.quat, f.bias, f.covariance, self.time.copy(), self.fixed.copy(), self.innovation, self.nis,
+                  self.last_fix)
+        try:
+            with np.errstate(over="raise", invalid="raise", divide="raise"):
+                return self._estimate(t, measurement)
+        except (ArithmeticError, np.linalg.LinAlgError):
+            f.quat, f.bias, f.covariance, self.time, self.fixed, self.innovation, self.nis, self.last_fix = before
+            return self._each_alone(t, measurement, command)
+
+    def _each_alone(self, t, measurement, command) -> dict:
+        """This tick on each world's own estimator (written back first), the form then read again from them."""
+        count = len(self.stages)
+        outputs, failures = [None] * count, {}
+        for row, stage in enumerate(self.stages):
+            self.settle(row)
+            try:
+                with np.errstate(over="raise", invalid="raise", divide="raise"):
+                    outputs[row] = stage.estimate(t, rows_of(measurement, count)[row], rows_of(command, count)[row])
+            except Exception as exc:  # noqa: BLE001  (that world's own estimator failed: it ends that world)
+                failures[row] = failure_of(t, "estimator", stage, exc)
+        self.__init__(self.stages)
+        alive = next((out for out in outputs if out is not None), None)
+        filler = {key: np.full(np.shape(value), np.nan) for key, value in (alive or {}).items()}
+        stacked_outputs = stacked([filler if out is None else out for out in outputs])
+        if failures:
+            raise WorldsFailed(failures, stacked_outputs)
+        return stacked_outputs
+
+    def _estimate(self, t, measurement) -> dict:
         stamp = measurement["gyro_stamp"][:, 0]
         new = measurement["tracker_new"][:, 0] != 0
         seen = measurement["tracker_stamp"][:, 0]
