@@ -5,6 +5,8 @@
 world of a batch (testbed.batch).
 """
 
+import math
+
 import mujoco
 import numpy as np
 
@@ -59,11 +61,24 @@ def quat_to_matrix(q):
     return mat.reshape(3, 3)
 
 
+def length(v):
+    """|v| of (..., 3) rows as (..., 1), or of one vector (3,) as a number: the square root of
+    the sum of squares, summed in order (the same rounding either way)."""
+    if v.ndim == 1:
+        return math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    return np.sqrt(np.sum(v * v, axis=-1, keepdims=True))
+
+
 def quat_from_rotation_vector(theta):
     """Unit quaternion exp(theta/2) = (cos |theta|/2, sin(|theta|/2) theta/|theta|) of a rotation
     vector [rad] (..., 3); (1, 0, 0, 0) for theta = 0."""
     theta = np.asarray(theta, dtype=float)
-    angle = np.sqrt(np.sum(theta * theta, axis=-1, keepdims=True))
+    angle = length(theta)
+    if theta.ndim == 1:  # one vector: plain floats, a third of the rows' cost
+        if angle == 0.0:
+            return np.array([1.0, 0.0, 0.0, 0.0])
+        half = angle / 2
+        return np.concatenate([[np.cos(half)], np.sin(half) * (theta / angle)])
     axis = np.divide(theta, angle, out=np.zeros_like(theta), where=angle > 0)
     half = angle / 2
     return np.concatenate([np.cos(half), np.sin(half) * axis], axis=-1)
@@ -74,7 +89,11 @@ def rotation_vector(q):
     zeros for the identity."""
     q = np.asarray(q, dtype=float)
     w, v = q[..., :1], q[..., 1:]
-    s = np.sqrt(np.sum(v * v, axis=-1, keepdims=True))
+    s = length(v)
+    if q.ndim == 1:  # one quaternion: plain floats, a third of the rows' cost
+        if s == 0.0:
+            return np.zeros(3)
+        return (-2.0 if q[0] < 0 else 2.0) * np.arctan2(s, abs(q[0])) * v / s
     # -q is the same attitude: the one with w >= 0 turns the short way
     scale = np.where(w < 0, -2.0, 2.0) * np.arctan2(s, np.abs(w))
     return np.divide(scale * v, s, out=np.zeros_like(v), where=s > 0)

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from testbed.math.quaternion import quat_conj, quat_from_rotation_vector, quat_mul, rotation_vector
+from testbed.math.quaternion import length, quat_conj, quat_from_rotation_vector, quat_mul, rotation_vector
 
 I3 = np.eye(3)
 H = np.hstack([I3, np.zeros((3, 3))])
@@ -26,12 +26,17 @@ H = np.hstack([I3, np.zeros((3, 3))])
 SERIES_BELOW = 1e-6
 
 
+# [v×] = v @ _SKEW_BASIS (rows v_x, v_y, v_z of the flattened 3 x 3): products by 0 and ±1, exact
+_SKEW_BASIS = np.array([[0, 0, 0, 0, 0, -1, 0, 1, 0], [0, 0, 1, 0, 0, 0, -1, 0, 0], [0, -1, 0, 1, 0, 0, 0, 0, 0]], float)
+# Q = a _ANGLE + c _CROSS + r _RATE: the 3 x 3 blocks of the process noise (module doc)
+_ANGLE, _CROSS, _RATE = (np.kron(block, I3) for block in ([[1.0, 0.0], [0.0, 0.0]], [[0.0, 1.0], [1.0, 0.0]],
+                                                           [[0.0, 0.0], [0.0, 1.0]]))
+
+
 def skew(v) -> np.ndarray:
     """[v×] (..., 3, 3) of v (..., 3): skew(v) @ u = v × u."""
     v = np.asarray(v, float)
-    x, y, z = v[..., 0], v[..., 1], v[..., 2]
-    zero = np.zeros_like(x)
-    return np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1), np.stack([-y, x, zero], -1)], -2)
+    return (v @ _SKEW_BASIS).reshape(v.shape[:-1] + (3, 3))
 
 
 def transposed(m) -> np.ndarray:
@@ -39,31 +44,39 @@ def transposed(m) -> np.ndarray:
     return np.swapaxes(m, -1, -2)
 
 
+def _rows(x):
+    """A number as it is; an array of one per filter as (..., 1, 1), to scale their matrices."""
+    return np.asarray(x, float)[..., None, None] if np.ndim(x) else x
+
+
 def transition(omega, dt) -> np.ndarray:
     """Φ (..., 6, 6) of the error state over dt [s] (a number or (...,)) at the held rate omega
-    (..., 3) [rad/s] (module doc)."""
-    dt = np.asarray(dt, float)[..., None, None]
-    w = np.sqrt(np.sum(omega * omega, axis=-1))[..., None, None]
+    (..., 3) [rad/s] (module doc), as Φ₁₁ = I + a [ω̂×] + b [ω̂×]², Φ₁₂ = b [ω̂×] - I Δt + e [ω̂×]²;
+    below w Δt = SERIES_BELOW the coefficients' series to second order (a = -Δt, b = Δt²/2,
+    e = -Δt³/6), where the closed form loses digits."""
+    dt, w = _rows(dt), length(omega)
+    w = w[..., None] if np.ndim(w) else w  # (..., 1, 1) rows, or one number
     cross = skew(omega)
     square = cross @ cross
     series = w * dt < SERIES_BELOW
-    w = np.where(series, 1.0, w)  # (the closed form's w, where it is not used: no division by 0)
+    w = np.where(series, 1.0, w)  # (rows the series serves: no division by 0)
     s, c = np.sin(w * dt), np.cos(w * dt)
-    top_left = np.where(series, I3 - cross * dt + square * dt**2 / 2, I3 - cross * s / w + square * (1 - c) / w**2)
-    top_right = np.where(series, -I3 * dt + cross * dt**2 / 2 - square * dt**3 / 6,
-                         cross * (1 - c) / w**2 - I3 * dt - square * (w * dt - s) / w**3)
-    bottom = np.broadcast_to(np.hstack([np.zeros((3, 3)), I3]), top_left.shape[:-2] + (3, 6))
-    return np.concatenate([np.concatenate([top_left, top_right], -1), bottom], -2)
+    a = np.where(series, -dt, -s / w)
+    b = np.where(series, dt**2 / 2, (1 - c) / w**2)
+    e = np.where(series, -dt**3 / 6, -(w * dt - s) / w**3)
+    phi = np.zeros(cross.shape[:-2] + (6, 6))
+    phi[..., 3:, 3:] = I3
+    phi[..., :3, :3] = I3 + a * cross + b * square
+    phi[..., :3, 3:] = b * cross - dt * I3 + e * square
+    return phi
 
 
 def process_noise(arw, rrw, dt) -> np.ndarray:
     """Q (..., 6, 6) over dt [s] for angle random walk σ_v and rate random walk σ_u (numbers or
     (...,) arrays) (module doc)."""
-    arw, rrw, dt = (np.asarray(x, float)[..., None, None] for x in (arw, rrw, dt))
-    angle = (arw**2 * dt + rrw**2 * dt**3 / 3) * I3
-    cross = -rrw**2 * dt**2 / 2 * I3
-    rate = rrw**2 * dt * I3
-    return np.concatenate([np.concatenate([angle, cross], -1), np.concatenate([cross, rate], -1)], -2)
+    arw, rrw, dt = _rows(arw), _rows(rrw), _rows(dt)
+    return ((arw**2 * dt + rrw**2 * dt**3 / 3) * _ANGLE + (-rrw**2 * dt**2 / 2) * _CROSS
+            + (rrw**2 * dt) * _RATE)
 
 
 class Mekf:
@@ -81,7 +94,7 @@ class Mekf:
     def propagate(self, rate: np.ndarray, dt) -> None:
         """Advance over dt [s] (a number or (N,)) with the gyro's mean rate `rate` [rad/s] over that interval."""
         omega = rate - self.bias
-        self.quat = quat_mul(self.quat, quat_from_rotation_vector(omega * np.asarray(dt, float)[..., None]))
+        self.quat = quat_mul(self.quat, quat_from_rotation_vector(omega * (np.asarray(dt)[..., None] if np.ndim(dt) else dt)))
         phi = transition(omega, dt)
         self.covariance = phi @ self.covariance @ transposed(phi) + process_noise(self.arw, self.rrw, dt)
 
