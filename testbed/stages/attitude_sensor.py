@@ -70,9 +70,15 @@ class IdealAttitudeWorlds:
 
     def __init__(self, stages: list):
         self.stages = list(stages)
+        self._noisy()
+
+    def _noisy(self) -> None:
+        self.noisy = [row for row, stage in enumerate(self.stages)
+                      if stage.params.attitude_noise_rad or stage.params.rate_noise_rad_s]
 
     def keep(self, rows) -> None:
         self.stages = [self.stages[i] for i in rows]
+        self._noisy()
 
     def settle(self, row: int) -> None:
         """Nothing to write back: each world's generator is its own stage's."""
@@ -80,13 +86,13 @@ class IdealAttitudeWorlds:
     def measure(self, t, plants: list) -> dict:
         quat = np.array([plant.quat() for plant in plants])
         omega = np.array([plant.omega() for plant in plants])
-        draws = [stage.draws() for stage in self.stages]
-        turns = [turn for turn, _ in draws]
-        noisy = [turn is not None for turn in turns]
-        turn = None
-        if any(noisy):  # a world without attitude noise turns by zero: exp(0) = 1 exactly
-            turn = np.array([np.zeros(3) if t is None else t for t in turns])
-        rate_noise = np.array([np.broadcast_to(noise, 3) for _, noise in draws], dtype=float)
+        if not self.noisy:
+            return noisy_attitude(quat, omega, None, 0.0)
+        turn, rate_noise = np.zeros((len(plants), 3)), np.zeros((len(plants), 3))
+        for row in self.noisy:  # a world without attitude noise turns by zero: exp(0) = 1 exactly
+            drawn, rate_noise[row] = self.stages[row].draws()
+            if drawn is not None:
+                turn[row] = drawn
         return noisy_attitude(quat, omega, turn, rate_noise)
 
 
