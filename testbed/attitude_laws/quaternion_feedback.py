@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from testbed.attitude_laws.regulation import Regulator, TargetParams
+from testbed.math.quaternion import length_column
 from testbed.pipeline import stage
 from testbed.scenario.schema import param
 
@@ -43,7 +44,7 @@ class QuaternionFeedback(Regulator):
         omega = np.asarray(inputs["omega"], float)
         error = self.error(t, inputs["quat"])
         wanted = (2.0 * self.k / self.c) * error[..., 1:]
-        size = np.sqrt(np.sum(wanted * wanted, axis=-1, keepdims=True))
+        size = length_column(wanted)
         limited = size > self.limit
         wanted = wanted * (self.limit / np.maximum(size, self.limit))  # (x 1 exactly when not limited)
         momentum = inputs["internal_momentum"]

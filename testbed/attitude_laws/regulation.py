@@ -9,7 +9,7 @@ import numpy as np
 from testbed.attitude_laws.momentum_input import DESIGN, INPUT, check_allocator
 from testbed.batch.stacked_stages import StatelessForm
 from testbed.math.cross import cross3
-from testbed.math.quaternion import quat_conj, quat_from_axis_angle, quat_mul, rotation_vector
+from testbed.math.quaternion import length_column, quat_conj, quat_from_axis_angle, quat_mul, rotation_vector
 from testbed.math.validation import check_unit_vector
 from testbed.pipeline import require_attitude_estimate, require_free_body
 from testbed.scenario.schema import join, param
@@ -68,5 +68,5 @@ class Regulator:
         and its angle `error_angle`, and the `internal_momentum` H it compensated with [N m s]."""
         angle = rotation_vector(error)
         return {"torque": torque, "attitude_error": angle,
-                "error_angle": np.sqrt(np.sum(angle * angle, axis=-1, keepdims=True)),
+                "error_angle": length_column(angle),
                 "internal_momentum": momentum}

@@ -34,7 +34,7 @@ from testbed.math.cross import cross3
 from testbed.guidance.tracking_law import TrackingLaw, TrackingWorlds
 from testbed.math.validation import check_unit_vector
 from testbed.pipeline import require_attitude_estimate, require_free_body, stage
-from testbed.math.quaternion import quat_conj, quat_from_axis_angle, quat_mul, rotation_vector
+from testbed.math.quaternion import length_column, quat_conj, quat_from_axis_angle, quat_mul, rotation_vector
 from testbed.scenario.schema import join, param
 from testbed.shaping.shapers import shaper_for
 
@@ -177,4 +177,4 @@ class Slew:
         error = rotation_vector(dq)
         return {"torque": torque, "program_quat": q_p, "program_omega": w_p,
                 "program_torque": np.matvec(self.inertia, dw_p) + cross3(w_p, np.matvec(self.inertia, w_p)),
-                "attitude_error": error, "error_angle": np.sqrt(np.sum(error * error, axis=-1, keepdims=True))}
+                "attitude_error": error, "error_angle": length_column(error)}

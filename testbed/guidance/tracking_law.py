@@ -27,7 +27,7 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.math.cross import cross3
 from testbed.math.validation import UNIT_TOLERANCE, finite_number, inertia_matrix, unit_quaternion, vector3
-from testbed.math.quaternion import quat_conj, quat_mul, quat_rotate
+from testbed.math.quaternion import length, quat_conj, quat_mul, quat_rotate
 
 
 class TrackingLaw:
@@ -105,7 +105,7 @@ class TrackingWorlds(TrackingLaw):
     def _checked(self, q, w):
         """The rows' q normalised; any row's nonsense (not finite, far from unit length) refused
         with ValueError, for the worlds' own laws to say which (testbed.batch.stacked_stages)."""
-        norm = np.sqrt(np.sum(q * q, axis=-1, keepdims=True))  # as unit_quaternion's, row by row
+        norm = length(q)  # unit_quaternion's, row by row
         if not (np.all(np.abs(norm - 1.0) <= UNIT_TOLERANCE) and np.all(np.isfinite(w))):
             raise ValueError("an attitude estimate that a world's law refuses")
         return q / norm, w

@@ -62,11 +62,17 @@ def quat_to_matrix(q):
 
 
 def length(v):
-    """|v| of (..., 3) rows as (..., 1), or of one vector (3,) as a number: the square root of
-    the sum of squares, summed in order (the same rounding either way)."""
+    """|v| of (..., n) rows as (..., 1), or of one vector (n,) as a number: the square root of
+    its dot product with itself, np.linalg.norm's (np.vecdot on rows rounds as np.dot does on
+    one: a batch's row is its world's own to the bit)."""
     if v.ndim == 1:
-        return math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
-    return np.sqrt(np.sum(v * v, axis=-1, keepdims=True))
+        return math.sqrt(np.dot(v, v))
+    return np.sqrt(np.vecdot(v, v))[..., None]
+
+
+def length_column(v) -> np.ndarray:
+    """|v| (`length`) as an array (..., 1): (1,) for one vector."""
+    return np.reshape(length(v), np.shape(v)[:-1] + (1,))
 
 
 def quat_from_rotation_vector(theta):

@@ -76,9 +76,7 @@ UNIT_TOLERANCE = 1e-3
 
 
 def _to_unit(field: str, v: np.ndarray, what: str, tol: float) -> np.ndarray:
-    # the sum of squares, as a batch's rows take it (np.linalg.norm of one vector is a dot product,
-    # whose rounding differs): a world's attitude is normalised to the bit as its single run's
-    norm = float(np.sqrt(np.sum(v * v)))
+    norm = float(np.linalg.norm(v))
     if norm == 0.0:
         raise InputError(field, f"must be a unit {what}, got the zero {what}")
     if abs(norm - 1.0) > tol:

@@ -86,7 +86,7 @@ class Mekf:
 
     def __init__(self, quat, bias, covariance, arw, rrw):
         quat = np.asarray(quat, float)
-        self.quat = quat / np.sqrt(np.sum(quat * quat, axis=-1, keepdims=True))
+        self.quat = quat / length(quat)
         self.bias = np.array(bias, float)
         self.covariance = np.array(covariance, float)
         self.arw, self.rrw = arw, rrw
@@ -110,8 +110,8 @@ class Mekf:
         gain = transposed(np.linalg.solve(s, p[..., :3, :]))  # P Hᵀ S⁻¹ (S, P symmetric)
         dx = np.matvec(gain, z)
         quat = quat_mul(self.quat, quat_from_rotation_vector(dx[..., :3]))
-        self.quat = quat / np.sqrt(np.sum(quat * quat, axis=-1, keepdims=True))
+        self.quat = quat / length(quat)
         self.bias = self.bias + dx[..., 3:]
         joseph = np.eye(6) - gain @ H
         self.covariance = joseph @ p @ transposed(joseph) + gain @ noise @ transposed(gain)
-        return np.sum(z * np.linalg.solve(s, z[..., None])[..., 0], axis=-1)
+        return np.vecdot(z, np.linalg.solve(s, z[..., None])[..., 0])
