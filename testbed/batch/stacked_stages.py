@@ -2,9 +2,9 @@
 own method, run once on an object whose per-world attributes are the worlds' values stacked.
 
 A stage class that is written on arrays with leading axes (its numbers broadcast: a scalar
-parameter as (N, 1), a vector as (N, 3), a matrix as (N, 3, 3)) declares the attributes its method
-reads per world (`Stacked`), and its `batched` classmethod gives `StatelessForm(stages, slot,
-those names)`. Each piece of math then exists once: the single run calls the same method on
+parameter as (N, 1), a vector as (N, 3), a matrix as (N, 3, 3)) gives, from its `batched`
+classmethod, `StatelessForm(stages, slot, names)` with the names of the attributes its method
+reads that differ from world to world. Each piece of math then exists once: the single run calls the same method on
 its own unstacked attributes. The rows are computed under the single run's floating-point rules
 (overflow, invalid and division raise); when the method raises on them (one row's overflow, a
 check of its inputs that one row fails), every world's own stage is run instead that tick, and
@@ -22,7 +22,7 @@ from testbed.errors import described
 from testbed.interrupts import from_a_signal
 from testbed.run_core.stage_contract import Declared, MethodFailed, StageFailed
 
-# The slot's method and the names of its arguments that carry (N, ...) rows (the rest are shared).
+# each slot's method (testbed.run_core.stage_contract)
 METHODS = {"sensor": "measure", "estimator": "estimate", "law": "torque", "allocator": "allocate"}
 
 
@@ -108,6 +108,8 @@ class StatelessForm:
         if outputs is None:  # every row replayed: the rows' own outputs, a failed row's not a number
             alive = next(iter(alone_outputs.values()), {})
             outputs = {key: np.full((count,) + np.shape(value), np.nan) for key, value in alive.items()}
+        else:  # (the outputs may be the inputs themselves: a pass-through's)
+            outputs = {key: np.array(value, dtype=float) for key, value in outputs.items()}
         for row, alone in alone_outputs.items():
             for key, value in alone.items():
                 outputs[key][row] = value
