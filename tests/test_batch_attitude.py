@@ -170,3 +170,15 @@ def test_a_filter_whose_numbers_overflow_fails_its_world_alone():
         expected = alone[row].estimate(0.1, {key: value[row] for key, value in measurement.items()}, {})
         for key, value in expected.items():
             np.testing.assert_array_equal(caught.value.outputs[key][row], value)
+
+
+def test_mekf_worlds_with_slower_instruments_and_late_trackers():
+    # a tracker every 3 ticks and a gyro every 2: batched; a tracker 0.2 s late: each world its own
+    slower = ["pipeline.sensor.star_tracker.sample_period_s=0.3", "pipeline.sensor.gyro.sample_period_s=0.2"]
+    for extra, forms_wanted in ((slower, ("StarTrackerGyroWorlds", "MekfWorlds")),
+                                (["pipeline.sensor.star_tracker.latency_s=0.2"], ("PerWorld", "PerWorld"))):
+        scenarios = [mekf_world(i, AXES[i], extra + ["sim.duration_s=12"]) for i in range(3)]
+        singles, batched, forms = batched_and_singles(scenarios)
+        assert (type(forms["sensor"]).__name__, type(forms["estimator"]).__name__) == forms_wanted
+        for single, world in zip(singles, batched):
+            agree(single, world)
