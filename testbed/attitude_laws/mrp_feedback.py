@@ -29,6 +29,7 @@ class MrpFeedback(Regulator):
     """MRP feedback -K sigma - P w (Schaub) with w x (I w + H) compensation."""
 
     name = "mrp_feedback"
+    per_world = Regulator.per_world + ("k", "p")
 
     def __init__(self, params: MrpFeedbackParams, ctx):
         super().__init__(params, ctx)
@@ -37,7 +38,7 @@ class MrpFeedback(Regulator):
     def torque(self, t, inputs):
         omega = np.asarray(inputs["omega"], float)
         error = self.error(t, inputs["quat"])
-        sigma = error[1:] / (1.0 + error[0])
+        sigma = error[..., 1:] / (1.0 + error[..., :1])
         momentum = inputs["internal_momentum"]
         torque = -self.k * sigma - self.p * omega + self.gyroscopic(omega, momentum)
         return self.signals(torque, error, momentum) | {"mrp_error": sigma}

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from testbed.attitude_laws.regulation import Regulator, TargetParams
+from testbed.math.quaternion import length_column
 from testbed.pipeline import stage
 from testbed.scenario.schema import param
 
@@ -31,6 +32,7 @@ class QuaternionFeedback(Regulator):
     """Rate-limited eigen-axis quaternion feedback (Wie) with w x (I w + H) compensation."""
 
     name = "quaternion_feedback"
+    per_world = Regulator.per_world + ("k", "c", "limit")
 
     def __init__(self, params: QuaternionFeedbackParams, ctx):
         super().__init__(params, ctx)
@@ -41,11 +43,10 @@ class QuaternionFeedback(Regulator):
     def torque(self, t, inputs):
         omega = np.asarray(inputs["omega"], float)
         error = self.error(t, inputs["quat"])
-        wanted = (2.0 * self.k / self.c) * error[1:]
-        size = float(np.linalg.norm(wanted))
+        wanted = (2.0 * self.k / self.c) * error[..., 1:]
+        size = length_column(wanted)
         limited = size > self.limit
-        if limited:
-            wanted = wanted * (self.limit / size)
+        wanted = wanted * (self.limit / np.maximum(size, self.limit))  # (x 1 exactly when not limited)
         momentum = inputs["internal_momentum"]
-        torque = -self.inertia @ (self.c * (wanted + omega)) + self.gyroscopic(omega, momentum)
-        return self.signals(torque, error, momentum) | {"rate_limited": np.array([1.0 if limited else 0.0])}
+        torque = -np.matvec(self.inertia, self.c * (wanted + omega)) + self.gyroscopic(omega, momentum)
+        return self.signals(torque, error, momentum) | {"rate_limited": limited.astype(float)}

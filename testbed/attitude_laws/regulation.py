@@ -7,8 +7,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from testbed.attitude_laws.momentum_input import DESIGN, INPUT, check_allocator
+from testbed.batch.stacked_stages import StatelessForm
 from testbed.math.cross import cross3
-from testbed.math.quaternion import quat_conj, quat_from_axis_angle, quat_mul, rotation_vector
+from testbed.math.quaternion import length_column, quat_conj, quat_from_axis_angle, quat_mul, rotation_vector
 from testbed.math.validation import check_unit_vector
 from testbed.pipeline import require_attitude_estimate, require_free_body
 from testbed.scenario.schema import join, param
@@ -25,10 +26,18 @@ class TargetParams:
 
 
 class Regulator:
-    """Base of a law towards a fixed target q_t = q0 ∘ (axis, angle), q0 the scenario's start."""
+    """Base of a law towards a fixed target q_t = q0 ∘ (axis, angle), q0 the scenario's start.
+    Its arithmetic broadcasts over a leading axis of worlds (testbed.batch.stacked_stages):
+    `per_world` names what differs from world to world."""
 
     inputs = (INPUT,)
     name = ""
+    per_world = ("inertia", "start_quat", "target", "start")
+
+    @classmethod
+    def batched(cls, stages: list) -> StatelessForm:
+        """The law on many worlds: its own `torque` on their stacked targets, gains and inertias."""
+        return StatelessForm(stages, "law", cls.per_world)
 
     @classmethod
     def design(cls, params) -> dict:
@@ -46,17 +55,18 @@ class Regulator:
 
     def error(self, t: float, quat) -> np.ndarray:
         """q_e = q_t~ ∘ q, the short way (q_e,w >= 0)."""
-        target = self.target if t >= self.start else self.start_quat
+        target = np.where(t >= self.start, self.target, self.start_quat)
         error = quat_mul(quat_conj(target), quat)
-        return error if error[0] >= 0 else -error
+        return np.where(error[..., :1] >= 0, error, -error)
 
     def gyroscopic(self, omega, momentum) -> np.ndarray:
         """ω × (I ω + H) [N m]."""
-        return cross3(omega, self.inertia @ omega + momentum)
+        return cross3(omega, np.matvec(self.inertia, omega) + momentum)
 
     def signals(self, torque, error, momentum) -> dict:
         """What a regulator records: `torque`, the error as a rotation vector `attitude_error` [rad]
         and its angle `error_angle`, and the `internal_momentum` H it compensated with [N m s]."""
         angle = rotation_vector(error)
-        return {"torque": torque, "attitude_error": angle, "error_angle": np.array([np.linalg.norm(angle)]),
+        return {"torque": torque, "attitude_error": angle,
+                "error_angle": length_column(angle),
                 "internal_momentum": momentum}

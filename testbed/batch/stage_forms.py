@@ -99,8 +99,9 @@ class PerWorld:
 
 def form_of(slot: str, pipelines: list):
     """The slot's form on the worlds of `pipelines`: the stages' batched form when every world's
-    stage is of one built-in class that declares one, none has an output check and the form takes
-    these worlds (not None), else `PerWorld`."""
+    stage is of one built-in class that declares one, none has an output check and the class
+    gives one for these worlds (its `batched` may answer None: e.g. options it does not batch),
+    else `PerWorld`."""
     stages = [pipeline.stages()[slot] for pipeline in pipelines]
     kinds = {type(stage) for stage in stages}
     declared = pipelines[0].declared[slot]

@@ -173,34 +173,13 @@ class ProgramTrajectory:
     def angles(self, t):
         """ψ(t), ψ'(t), ψ''(t) as three (3,) arrays (eq. 11; linear outside [0, T]); with a
         profile, ψ0 (1 - g), -ψ0 g', -ψ0 g''."""
-        a = self.coeffs
         if self.profile is not None:
-            g, dg, ddg = self.profile(float(t))
-            return a[:, 0] * (1.0 - g), -a[:, 0] * dg, -a[:, 0] * ddg
-        T = self.duration
-        tc = min(max(float(t), 0.0), T)
-        psi = a[:, 0] + tc * (a[:, 1] + tc * (a[:, 2] + tc * a[:, 3]))
-        dpsi = a[:, 1] + tc * (2.0 * a[:, 2] + 3.0 * tc * a[:, 3])
-        ddpsi = 2.0 * a[:, 2] + 6.0 * tc * a[:, 3]
-        if tc != float(t):  # continue at the boundary rate: ψ'' = 0
-            psi = psi + (float(t) - tc) * dpsi
-            ddpsi = np.zeros(3)
-        return psi, dpsi, ddpsi
+            return profile_angles(self.coeffs, self.profile(float(t)))
+        return cubic_angles(self.coeffs, self.duration, float(t))
 
     def _relative(self, t):
         """Λr = Λ1Λ2Λ3 and its first two time derivatives (product rule on eq. (6))."""
-        psi, dpsi, ddpsi = self.angles(t)
-        # D[k, i]: k-th time derivative of Λi.  Λi' = (ψi'/2) b_i ∘ Λi and
-        # Λi'' = (ψi''/2) b_i ∘ Λi - (ψi'/2)² Λi   (b_i ∘ b_i = -1 for a unit vector).
-        c, s = np.cos(psi / 2), np.sin(psi / 2)
-        lam = np.column_stack([c, s[:, None] * self.axes])
-        b_lam = np.column_stack([-s, c[:, None] * self.axes])  # b ∘ (c + s b) = -s + c b
-        D = np.stack([lam, 0.5 * dpsi[:, None] * b_lam,
-                      0.5 * ddpsi[:, None] * b_lam - 0.25 * (dpsi**2)[:, None] * lam])
-        # All ten products D[k1,0] D[k2,1] D[k3,2] with k1 + k2 + k3 <= 2 in one broadcast call.
-        k = _ORDERS
-        prods = quat_mul(quat_mul(D[k[:, 0], 0], D[k[:, 1], 1]), D[k[:, 2], 2])
-        return prods[0], prods[1:4].sum(axis=0), _SECOND_WEIGHTS @ prods[4:]
+        return relative_rotation(self.axes, *self.angles(t))
 
     def state(self, t):
         """(Λ*(t), ω*(t), ω*'(t)) from one evaluation of eq. (5), (7), (8). The arrays of the last
@@ -209,12 +188,7 @@ class ProgramTrajectory:
         kept = self.__dict__.get("_kept_state")
         if kept is not None and kept[0] == t:
             return kept[1]
-        lam, dlam, ddlam = self._relative(t)
-        # Rows: Λ~∘Λ' (7), Λ~'∘Λ' and Λ~∘Λ'' (8), Λ_T∘Λ (5): one broadcast product.
-        left = np.stack([quat_conj(lam), quat_conj(dlam), quat_conj(lam), self.q_ref])
-        right = np.stack([dlam, dlam, ddlam, lam])
-        p = quat_mul(left, right)
-        state = (p[3], 2.0 * p[0, 1:], 2.0 * (p[1, 1:] + p[2, 1:]))
+        state = program_state(self.q_ref, *self._relative(t))
         for values in state:
             values.flags.writeable = False
         object.__setattr__(self, "_kept_state", (t, state))  # frozen fields; this is no field
@@ -237,6 +211,85 @@ class ProgramTrajectory:
         inertia = inertia_matrix("body.inertia", inertia)
         _, w, dw = self.state(t)
         return inertia @ dw + np.cross(w, inertia @ w)
+
+
+class ProgramWorlds:
+    """The programs of many worlds as one: `state(t)` gives (N, ...) rows of (Λ*, ω*, ω*') at
+    the worlds' times t (N, 1), each row its world's `ProgramTrajectory.state`."""
+
+    def __init__(self, programs: list):
+        self.q_ref = np.array([p.q_ref for p in programs])
+        self.axes = np.array([p.axes for p in programs])
+        self.coeffs = np.array([p.coeffs for p in programs])
+        self.duration = np.array([[p.duration] for p in programs])
+        self.profiles = [p.profile for p in programs]
+        self._kept = (None, None)
+
+    def keep(self, rows) -> None:
+        for name in ("q_ref", "axes", "coeffs", "duration"):
+            setattr(self, name, getattr(self, name)[rows])
+        self.profiles = [self.profiles[i] for i in rows]
+        self._kept = (None, None)
+
+    def state(self, t):
+        """(Λ*, ω*, ω*') (N, 4), (N, 3), (N, 3) at the worlds' times t (N, 1) [s]; the last t
+        asked for (the same array) is answered from the last evaluation."""
+        if self._kept[0] is t:
+            return self._kept[1]
+        psi, dpsi, ddpsi = cubic_angles(self.coeffs, self.duration, t)
+        for row, profile in enumerate(self.profiles):
+            if profile is not None:
+                psi[row], dpsi[row], ddpsi[row] = profile_angles(self.coeffs[row], profile(float(t[row, 0])))
+        state = program_state(self.q_ref, *relative_rotation(self.axes, psi, dpsi, ddpsi))
+        self._kept = (t, state)
+        return state
+
+
+def cubic_angles(coeffs, duration, t):
+    """ψ, ψ', ψ'' (..., 3) of the cubics with coefficients `coeffs` (..., 3, 4) at t [s] (eq. 11),
+    continued at their boundary rates outside [0, T] (ψ'' = 0); `duration` T and t numbers or
+    (..., 1) columns (one per world of a batch)."""
+    a = coeffs
+    tc = np.minimum(np.maximum(t, 0.0), duration)
+    psi = a[..., 0] + tc * (a[..., 1] + tc * (a[..., 2] + tc * a[..., 3]))
+    dpsi = a[..., 1] + tc * (2.0 * a[..., 2] + 3.0 * tc * a[..., 3])
+    ddpsi = 2.0 * a[..., 2] + 6.0 * tc * a[..., 3]
+    outside = tc != t
+    return psi + (t - tc) * dpsi, dpsi, np.where(outside, 0.0, ddpsi)
+
+
+def profile_angles(coeffs, fraction):
+    """ψ0 (1 - g), -ψ0 g', -ψ0 g'' of a rest-to-rest program (..., 3, 4) for the profile's
+    (g, g', g'') at one time (RestToRestProfile.__call__)."""
+    g, dg, ddg = fraction
+    a0 = coeffs[..., 0]
+    return a0 * (1.0 - g), -a0 * dg, -a0 * ddg
+
+
+def relative_rotation(axes, psi, dpsi, ddpsi):
+    """Λr = Λ1Λ2Λ3 and its first two time derivatives (product rule on eq. (6)) for the axes
+    (..., 3, 3) (rows b1, b2, b3) and the angles ψ, ψ', ψ'' (..., 3)."""
+    # D[k, i]: k-th time derivative of Λi.  Λi' = (ψi'/2) b_i ∘ Λi and
+    # Λi'' = (ψi''/2) b_i ∘ Λi - (ψi'/2)² Λi   (b_i ∘ b_i = -1 for a unit vector).
+    c, s = np.cos(psi / 2)[..., None], np.sin(psi / 2)[..., None]
+    lam = np.concatenate([c, s * axes], axis=-1)
+    b_lam = np.concatenate([-s, c * axes], axis=-1)  # b ∘ (c + s b) = -s + c b
+    dpsi, ddpsi = dpsi[..., None], ddpsi[..., None]
+    D = np.stack([lam, 0.5 * dpsi * b_lam, 0.5 * ddpsi * b_lam - 0.25 * (dpsi**2) * lam], axis=-3)
+    # All ten products D[k1,0] D[k2,1] D[k3,2] with k1 + k2 + k3 <= 2 in one broadcast call.
+    k = _ORDERS
+    prods = quat_mul(quat_mul(D[..., k[:, 0], 0, :], D[..., k[:, 1], 1, :]), D[..., k[:, 2], 2, :])
+    return prods[..., 0, :], prods[..., 1:4, :].sum(axis=-2), np.vecmat(_SECOND_WEIGHTS, prods[..., 4:, :])
+
+
+def program_state(q_ref, lam, dlam, ddlam):
+    """(Λ*, ω*, ω*') of eq. (5), (7), (8) from the target Λ_T and Λr, Λr', Λr'' (..., 4)."""
+    # Rows: Λ~∘Λ' (7), Λ~'∘Λ' and Λ~∘Λ'' (8), Λ_T∘Λ (5): one broadcast product.
+    q_ref = np.broadcast_to(q_ref, lam.shape)
+    left = np.stack([quat_conj(lam), quat_conj(dlam), quat_conj(lam), q_ref], axis=-2)
+    right = np.stack([dlam, dlam, ddlam, lam], axis=-2)
+    p = quat_mul(left, right)
+    return p[..., 3, :], 2.0 * p[..., 0, 1:], 2.0 * (p[..., 1, 1:] + p[..., 2, 1:])
 
 
 def _boundary_axes(q_rel, wT):

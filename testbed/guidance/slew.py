@@ -27,13 +27,14 @@ from typing import Literal
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.guidance.program_trajectory import ProgramTrajectory
+from testbed.batch.stacked_stages import StatelessForm
+from testbed.guidance.program_trajectory import ProgramTrajectory, ProgramWorlds
 from testbed.guidance.rest_to_rest_profiles import NO_SHAPER, RestToRestProfile
 from testbed.math.cross import cross3
-from testbed.guidance.tracking_law import TrackingLaw
+from testbed.guidance.tracking_law import TrackingLaw, TrackingWorlds
 from testbed.math.validation import check_unit_vector
 from testbed.pipeline import require_attitude_estimate, require_free_body, stage
-from testbed.math.quaternion import quat_conj, quat_from_axis_angle, quat_mul, rotation_vector
+from testbed.math.quaternion import length_column, quat_conj, quat_from_axis_angle, quat_mul, rotation_vector
 from testbed.scenario.schema import join, param
 from testbed.shaping.shapers import shaper_for
 
@@ -162,11 +163,18 @@ class Slew:
         return {"axis": axis.tolist(), "angle_deg": sign * float(np.degrees(angle)),
                 "duration_s": self.program.duration}
 
+    @classmethod
+    def batched(cls, stages: list) -> StatelessForm:
+        """The law on many worlds: its own `torque` on their stacked programs and tracking laws."""
+        program = ProgramWorlds([stage.program for stage in stages])
+        tracking = TrackingWorlds([stage.tracking for stage in stages], program)
+        return StatelessForm(stages, "law", ("start", "inertia"), {"program": program, "tracking": tracking})
+
     def torque(self, t, estimate):
         tau = t - self.start
         torque, dq, _ = self.tracking.torque_and_errors(tau, estimate["quat"], estimate["omega"])
         q_p, w_p, dw_p = self.program.state(tau)
         error = rotation_vector(dq)
         return {"torque": torque, "program_quat": q_p, "program_omega": w_p,
-                "program_torque": self.inertia @ dw_p + cross3(w_p, self.inertia @ w_p),
-                "attitude_error": error, "error_angle": np.array([np.linalg.norm(error)])}
+                "program_torque": np.matvec(self.inertia, dw_p) + cross3(w_p, np.matvec(self.inertia, w_p)),
+                "attitude_error": error, "error_angle": length_column(error)}

@@ -26,8 +26,8 @@ import numpy as np
 
 from testbed.errors import InputError
 from testbed.math.cross import cross3
-from testbed.math.validation import finite_number, inertia_matrix, unit_quaternion, vector3
-from testbed.math.quaternion import quat_conj, quat_mul, quat_rotate
+from testbed.math.validation import UNIT_TOLERANCE, finite_number, inertia_matrix, unit_quaternion, vector3
+from testbed.math.quaternion import length, quat_conj, quat_mul, quat_rotate
 
 
 class TrackingLaw:
@@ -54,10 +54,13 @@ class TrackingLaw:
         """(δq, δω, ω_d): attitude error Λ*~∘q, rate error ω - ω_d, program rate ω_d in the body frame."""
         return self._errors(t, q, w)[:3]
 
+    def _checked(self, q, w):
+        """(q, w) checked: q normalised (estimated attitudes drift off |q| = 1 a little), only
+        nonsense refused."""
+        return unit_quaternion("state.q", q), vector3("state.w_rad_s", w)
+
     def _errors(self, t, q, w):
-        # Integrated or estimated attitudes drift off |q| = 1 a little: normalise, reject only nonsense.
-        q = unit_quaternion("state.q", q)
-        w = vector3("state.w_rad_s", w)
+        q, w = self._checked(q, w)
         q_p, w_p, dw_p = self.program.state(t)
         dq = quat_mul(quat_conj(q_p), q)
         # R(δq)ᵀ applied to the program rate and acceleration in one broadcast call
@@ -70,8 +73,8 @@ class TrackingLaw:
         return self._pd(dq, dw)
 
     def _pd(self, dq, dw):
-        sign = 1.0 if dq[0] >= 0 else -1.0  # the short way round: q and -q are one attitude
-        return -self.kp @ (sign * dq[1:]) - self.kd @ dw
+        sign = np.where(dq[..., :1] >= 0, 1.0, -1.0)  # the short way round: q and -q are one attitude
+        return -np.matvec(self.kp, sign * dq[..., 1:]) - np.matvec(self.kd, dw)
 
     def __call__(self, t, q_est, w_est) -> np.ndarray:
         """Wanted body torque M [N m] for the estimated attitude q_est and body rate w_est."""
@@ -82,6 +85,29 @@ class TrackingLaw:
         dq, dw, w_d, acc_p = self._errors(t, q_est, w_est)
         w = dw + w_d
         acc_d = acc_p - cross3(dw, w_d)
-        return self.inertia @ acc_d + cross3(w, self.inertia @ w) + self._pd(dq, dw), dq, dw
+        return np.matvec(self.inertia, acc_d) + cross3(w, np.matvec(self.inertia, w)) + self._pd(dq, dw), dq, dw
+
+
+class TrackingWorlds(TrackingLaw):
+    """The tracking laws of many worlds as one, on (N, ...) rows: the laws' gains and inertias
+    stacked, `program` the worlds' programs (anything with state(t) -> (N, ...) rows). Built from
+    the worlds' own laws: nothing is checked again."""
+
+    def __init__(self, laws: list, program):
+        self.program = program
+        for name in ("inertia", "kp", "kd"):
+            setattr(self, name, np.array([getattr(law, name) for law in laws]))
+
+    def keep(self, rows) -> None:
+        for name in ("inertia", "kp", "kd"):
+            setattr(self, name, getattr(self, name)[rows])
+
+    def _checked(self, q, w):
+        """The rows' q normalised; any row's nonsense (not finite, far from unit length) refused
+        with ValueError, for the worlds' own laws to say which (testbed.batch.stacked_stages)."""
+        norm = length(q)  # unit_quaternion's, row by row
+        if not (np.all(np.abs(norm - 1.0) <= UNIT_TOLERANCE) and np.all(np.isfinite(w))):
+            raise ValueError("an attitude estimate that a world's law refuses")
+        return q / norm, w
 
 

@@ -20,7 +20,7 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.gym.cluster_limits import ClusterLimits, scaled, singularity_measures
 from testbed.gym.stepped_env import SteppedEnv, norms
-from testbed.math.quaternion import quat_conj, quat_mul, rotation_vectors
+from testbed.math.quaternion import quat_conj, quat_mul, rotation_vector
 from testbed.math.validation import positive_number
 
 # the reward's weights: attitude error, body rate, effort (each term at most 1 per component)
@@ -32,7 +32,7 @@ SETTLING_TIMES = 15.0
 
 def rotation_to(quat, target_quat) -> np.ndarray:
     """e (..., 3): the rotation vector taking the body at `quat` (..., 4) to `target_quat`, body axes [rad]."""
-    return rotation_vectors(quat_mul(quat_conj(quat), target_quat))
+    return rotation_vector(quat_mul(quat_conj(quat), target_quat))
 
 
 def attitude_observation(quat, omega, target_quat, error_scale: float, rate_scale: float) -> np.ndarray:

@@ -1,7 +1,11 @@
 """Quaternion algebra in MuJoCo's convention: q = (w, x, y, z), Hamilton product.
 
-`q` maps body-frame vectors to the world frame: v_world = q ∘ v_body ∘ q~.
+`q` maps body-frame vectors to the world frame: v_world = q ∘ v_body ∘ q~. Every function but
+`quat_to_matrix` also takes arrays of them with leading axes (..., 4) / (..., 3): one row per
+world of a batch (testbed.batch).
 """
+
+import math
 
 import mujoco
 import numpy as np
@@ -27,9 +31,11 @@ def quat_conj(q):
 
 
 def quat_from_axis_angle(axis, angle):
-    """Unit quaternion cos(angle/2) + axis sin(angle/2); `axis` must be a unit vector."""
+    """Unit quaternion cos(angle/2) + axis sin(angle/2); `axis` must be a unit vector (..., 3),
+    `angle` [rad] a number or an array (..., 1)."""
     axis = np.asarray(axis, dtype=float)
-    return np.concatenate([[np.cos(angle / 2)], np.sin(angle / 2) * axis])
+    half = np.asarray(angle, dtype=float) / 2
+    return np.concatenate([np.cos(half) * np.ones_like(axis[..., :1]), np.sin(half) * axis], axis=-1)
 
 
 def quat_rotate(q, v):
@@ -55,31 +61,45 @@ def quat_to_matrix(q):
     return mat.reshape(3, 3)
 
 
+def length(v):
+    """|v| of (..., n) rows as (..., 1), or of one vector (n,) as a number: the square root of
+    its dot product with itself, np.linalg.norm's (np.vecdot on rows rounds as np.dot does on
+    one: a batch's row is its world's own to the bit)."""
+    if v.ndim == 1:
+        return math.sqrt(np.dot(v, v))
+    return np.sqrt(np.vecdot(v, v))[..., None]
+
+
+def length_column(v) -> np.ndarray:
+    """|v| (`length`) as an array (..., 1): (1,) for one vector."""
+    return np.reshape(length(v), np.shape(v)[:-1] + (1,))
+
+
 def quat_from_rotation_vector(theta):
-    """Unit quaternion exp(theta/2) = (cos |theta|/2, sin(|theta|/2) theta/|theta|) of a rotation vector [rad]."""
+    """Unit quaternion exp(theta/2) = (cos |theta|/2, sin(|theta|/2) theta/|theta|) of a rotation
+    vector [rad] (..., 3); (1, 0, 0, 0) for theta = 0."""
     theta = np.asarray(theta, dtype=float)
-    angle = float(np.linalg.norm(theta))
-    if angle == 0.0:
-        return np.array([1.0, 0.0, 0.0, 0.0])
-    return quat_from_axis_angle(theta / angle, angle)
+    angle = length(theta)
+    if theta.ndim == 1:  # one vector: plain floats, a third of the rows' cost
+        if angle == 0.0:
+            return np.array([1.0, 0.0, 0.0, 0.0])
+        half = angle / 2
+        return np.concatenate([[np.cos(half)], np.sin(half) * (theta / angle)])
+    axis = np.divide(theta, angle, out=np.zeros_like(theta), where=angle > 0)
+    half = angle / 2
+    return np.concatenate([np.cos(half), np.sin(half) * axis], axis=-1)
 
 
 def rotation_vector(q):
-    """theta = angle * axis of unit quaternion q, the short way (angle in [0, pi]) [rad]."""
+    """theta = angle * axis of unit quaternion q (..., 4), the short way (angle in [0, pi]) [rad];
+    zeros for the identity."""
     q = np.asarray(q, dtype=float)
-    q = q if q[0] >= 0 else -q
-    s = float(np.linalg.norm(q[1:]))
-    if s == 0.0:
-        return np.zeros(3)
-    return 2.0 * np.arctan2(s, q[0]) * q[1:] / s
-
-
-def rotation_vectors(q):
-    """theta (..., 3) of unit quaternions q (..., 4), row by row as `rotation_vector` (the norms
-    summed along the last axis, so that a row's value does not depend on the rows beside it) [rad]."""
-    q = np.asarray(q, dtype=float)
-    q = np.where(q[..., :1] >= 0, q, -q)
-    s = np.sqrt(np.sum(q[..., 1:] * q[..., 1:], axis=-1, keepdims=True))
-    with np.errstate(invalid="ignore", divide="ignore"):  # s = 0 (no rotation) is taken apart below
-        theta = 2.0 * np.arctan2(s, q[..., :1]) * q[..., 1:] / s
-    return np.where(s == 0.0, 0.0, theta)
+    w, v = q[..., :1], q[..., 1:]
+    s = length(v)
+    if q.ndim == 1:  # one quaternion: plain floats, a third of the rows' cost
+        if s == 0.0:
+            return np.zeros(3)
+        return (-2.0 if q[0] < 0 else 2.0) * np.arctan2(s, abs(q[0])) * v / s
+    # -q is the same attitude: the one with w >= 0 turns the short way
+    scale = np.where(w < 0, -2.0, 2.0) * np.arctan2(s, np.abs(w))
+    return np.divide(scale * v, s, out=np.zeros_like(v), where=s > 0)

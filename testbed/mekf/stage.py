@@ -27,6 +27,7 @@ import numpy as np
 from testbed.errors import InputError
 from testbed.math.quaternion import quat_from_rotation_vector, quat_mul
 from testbed.mekf.filter import Mekf
+from testbed.mekf.worlds import MekfWorlds, batchable
 from testbed.pipeline import MethodFailed, stage
 from testbed.scenario.schema import join, param
 
@@ -100,6 +101,11 @@ class MekfEstimator:
         self.statistics = {"settle_s": params.settle_s}
         self.coast_bound = coast_bound(self.noise)
         self.last_fix: float | None = None   # when the last update came, if the filter then held its bound
+
+    @classmethod
+    def batched(cls, stages: list) -> MekfWorlds | None:
+        """The estimators of many worlds as one (testbed.mekf.worlds), or None: each its own."""
+        return MekfWorlds(stages) if batchable(stages) else None
 
     def _advance(self, until: float) -> None:
         """Propagate the filter through the pending gyro samples up to time `until`."""

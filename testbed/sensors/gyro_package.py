@@ -65,6 +65,13 @@ def sensing_matrix(params: GyroPackageParams) -> np.ndarray:
     return matrix
 
 
+def mean_rate(matrix, rotation, period, bias, bias_step, white) -> tuple[np.ndarray, np.ndarray]:
+    """(ω̃_k, β_{k+1}) of the module doc, unquantised, for the draws `bias_step`, `white` [rad/s];
+    on (..., 3) rows of packages (matrix (..., 3, 3), period a number or (..., 1))."""
+    following = bias + bias_step
+    return np.matvec(matrix, rotation) / period + 0.5 * (bias + following) + white, following
+
+
 class GyroPackage:
     """The error model of the module doc, one sample at a time."""
 
@@ -78,12 +85,15 @@ class GyroPackage:
         self.remainder = np.zeros(3)
         self.noise = WhiteNoise(params.seed)
 
+    def draws(self) -> tuple[np.ndarray, np.ndarray]:
+        """The next sample's bias step σ_u Δt^½ N_u and white noise of the mean rate, drawn in
+        that order from the package's own generator [rad/s]."""
+        return self.noise.add(0.0, self.rrw * np.sqrt(self.period), 3), self.noise.add(0.0, self.white, 3)
+
     def sample(self, rotation: np.ndarray) -> np.ndarray:
         """The mean rate the package reports over an interval in which the body turned by the
         rotation vector `rotation` [rad, body axes]; advances the bias by one interval [rad/s]."""
-        following = self.noise.add(self.bias, self.rrw * np.sqrt(self.period), 3)
-        rate = self.noise.add(self.matrix @ rotation / self.period + 0.5 * (self.bias + following), self.white, 3)
-        self.bias = following
+        rate, self.bias = mean_rate(self.matrix, rotation, self.period, self.bias, *self.draws())
         if self.step:
             angle = rate * self.period + self.remainder
             counted = self.step * np.round(angle / self.step)

@@ -78,6 +78,12 @@ def measurement_covariance(params: StarTrackerParams) -> np.ndarray:
     return frame @ np.diag(sigma**2) @ frame.T
 
 
+def tracked_attitude(quat, frame, sigma, draw) -> np.ndarray:
+    """q̃ = q ∘ exp(δθ / 2), δθ = C (σ ∘ draw) (module doc), on (..., 4) rows of trackers (frame
+    (..., 3, 3), sigma (..., 3)) for standard normal draws (..., 3)."""
+    return quat_mul(quat, quat_from_rotation_vector(np.matvec(frame, sigma * draw)))
+
+
 class StarTracker:
     """The tracker of the module doc, called every `every` sensor periods; `delay` periods late."""
 
@@ -97,5 +103,4 @@ class StarTracker:
 
     def sample(self) -> np.ndarray:
         """The attitude `delay` periods ago (the first one before that) with the noise of the module doc."""
-        error = self.frame @ (self.sigma * self.noise.add(0.0, 1.0, 3))
-        return quat_mul(self.images[0], quat_from_rotation_vector(error))
+        return tracked_attitude(self.images[0], self.frame, self.sigma, self.noise.add(0.0, 1.0, 3))

@@ -23,6 +23,7 @@ from testbed.scenario.schema import whole_multiple
 from testbed.sensors.exclusion import Exclusion
 from testbed.sensors.gyro_package import GyroPackage, GyroPackageParams
 from testbed.sensors.star_tracker import StarTracker, StarTrackerParams, measurement_covariance
+from testbed.sensors.suite_worlds import StarTrackerGyroWorlds, batchable
 
 PATH = "pipeline.sensor"
 
@@ -94,6 +95,11 @@ class StarTrackerGyro:
         self.out = {"tracker_quat": np.array([1.0, 0.0, 0.0, 0.0]), "tracker_stamp": np.array([-1.0]),
                     "tracker_new": np.zeros(1), "tracker_available": np.ones(1),
                     "gyro_rate": np.zeros(3), "gyro_stamp": np.array([-1.0]), "gyro_bias": self.gyro.bias.copy()}
+
+    @classmethod
+    def batched(cls, stages: list) -> StarTrackerGyroWorlds | None:
+        """The sensors of many worlds as one (testbed.sensors.suite_worlds), or None: each its own."""
+        return StarTrackerGyroWorlds(stages) if batchable(stages) else None
 
     def applied(self) -> dict:
         """The noise seeds the instruments draw with (testbed.campaign.applied_values)."""

@@ -13,6 +13,8 @@ from math import sin
 
 import numpy as np
 
+from testbed.batch.stacked_stages import StatelessForm
+
 from testbed.pipeline import stage
 from testbed.scenario.schema import param
 
@@ -102,6 +104,10 @@ class IdealTorque:
 
     def __init__(self, params, ctx):
         pass
+
+    @classmethod
+    def batched(cls, stages: list) -> StatelessForm:
+        return StatelessForm(stages, "allocator", ())
 
     def allocate(self, t, demand, estimate, actuators):
         return {"body_torque": np.asarray(demand.get("torque", np.zeros(3)), float)}
