@@ -14,6 +14,7 @@ from typing import Protocol
 import numpy as np
 
 from testbed.run_core.stage_contract import SLOTS, Declared, StageFailed
+from testbed.run_core.tick import stage_failure
 
 
 class BatchedForm(Protocol):
@@ -38,6 +39,16 @@ class WorldsFailed(Exception):
     def __init__(self, failures: dict[int, StageFailed], outputs: dict):
         self.failures, self.outputs = failures, outputs
         super().__init__(f"{len(failures)} worlds failed")
+
+
+def replayed(t: float, slot: str, stage, call) -> tuple:
+    """(call(), None), `call` a world's own stage redoing its step at t [s] under the run's
+    floating-point errors (a batched form's way to fail a row exactly as its single run does),
+    or (None, the StageFailed a single run's tick makes of what it raised)."""
+    try:
+        return call(), None
+    except Exception as exc:   # (a signal's stop, a BaseException, goes through)
+        return None, stage_failure(t, slot, stage, exc)
 
 
 def rows_of(signals: dict, count: int) -> list[dict]:
@@ -98,13 +109,15 @@ class PerWorld:
 
 def form_of(slot: str, pipelines: list):
     """The slot's form on the worlds of `pipelines`: the stages' batched form when every world's
-    stage is of one built-in class that declares one and none has an output check, else `PerWorld`."""
+    stage is of one built-in class that declares one, none has an output check and the form
+    takes these stages (`batched` gives None for those it does not), else `PerWorld`."""
     stages = [pipeline.stages()[slot] for pipeline in pipelines]
     kinds = {type(stage) for stage in stages}
     declared = pipelines[0].declared[slot]
+    form = None
     if len(kinds) == 1 and declared.batched is not None and not any(slot in p.checks for p in pipelines):
-        return declared.batched(stages)
-    return PerWorld(slot, pipelines)
+        form = declared.batched(stages)
+    return PerWorld(slot, pipelines) if form is None else form
 
 
 def forms_of(pipelines: list) -> dict:
