@@ -16,6 +16,8 @@ import numpy as np
 import testbed
 from testbed.batch import Batch
 from testbed.lebedev.batched import LebedevEstimates, LebedevTorques
+from testbed.lebedev.observer import gyrostat_jacobian
+from testbed.lebedev.validity import is_hurwitz
 from testbed.pipeline import StageContext
 from testbed.run_core.plan import prepare
 from testbed.scenario import schema
@@ -129,3 +131,19 @@ def test_the_gyros_form_gives_each_world_its_own_samples_to_the_bit():
     rows = form.measure(ticks * 0.05, [body, body])
     assert rows["y"][0] == alone[0].measure(ticks * 0.05, body)["y"]
     assert rows["y"][1] == alone[2].measure(ticks * 0.05, body)["y"]
+
+
+def test_the_validity_test_on_a_stack_is_each_matrix_alone():
+    """`gyrostat_jacobian` and `is_hurwitz` on a batch's stack (per-world moments) give each
+    world's own matrix and verdict, bit for bit; the verdicts checked against the eigenvalues."""
+    rng = np.random.default_rng(23)
+    moments = rng.uniform(1000.0, 8000.0, size=(400, 3))
+    w, momentum = rng.normal(scale=0.05, size=(400, 3)), rng.normal(scale=100.0, size=(400, 3))
+    jacobians = gyrostat_jacobian(moments, w, momentum)
+    shift = rng.uniform(0.0, 0.05, size=(400, 1, 1)) * np.eye(3)   # both signs of stability represented
+    verdicts = is_hurwitz(jacobians - shift)
+    for k in range(len(moments)):
+        alone = gyrostat_jacobian(moments[k], w[k], momentum[k])
+        assert jacobians[k].tobytes() == alone.tobytes()
+        assert verdicts[k] == is_hurwitz(alone - shift[k]) == (np.linalg.eigvals(alone - shift[k]).real.max() < 0.0)
+    assert 0 < verdicts.sum() < len(moments)

@@ -60,6 +60,7 @@ class LebedevEstimates:
         self.gain_times_c = np.array([g.gain_times_c for g in growths])          # (N, 3, 3)
         self.log_growth = np.array([g.log_growth for g in growths])
         self.since = np.array([np.nan if g.since is None else g.since for g in growths])
+        self.replayed: set = set()   # the rows that failed this tick, their stages in their failed state
 
     @classmethod
     def of(cls, stages: list):
@@ -74,14 +75,17 @@ class LebedevEstimates:
 
     def keep(self, rows: np.ndarray) -> None:
         self.stages = [self.stages[i] for i in rows]
+        self.replayed = set()
         for name in ("y_prev", "spin", "linear_hold", "moments", "momentum", "gain_times_c", "log_growth", "since"):
             setattr(self, name, getattr(self, name)[rows])
         for name in ("z", "target", "c", "a", "A", "l", "l_closed", "inertia"):
             setattr(self, name, getattr(self, name)[..., rows])
 
     def settle(self, row: int) -> None:
-        """The row's observer state back in its world's own stage."""
-        self._put(row, self.z[:, row], self.log_growth[row], self.since[row])
+        """The row's observer state back in its world's own stage (a row that failed left its
+        stage as its single run's failure leaves it: `_replay`)."""
+        if row not in self.replayed:
+            self._put(row, self.z[:, row], self.log_growth[row], self.since[row])
 
     def _put(self, row: int, z, log_growth, since) -> None:
         stage = self.stages[row]
@@ -123,7 +127,7 @@ class LebedevEstimates:
         z, each world's `ErrorGrowth.advance` (without its raise: a row at GROWTH_LIMIT is
         replayed); rows whose test matrix is not finite keep the old values (they are replayed)."""
         matrix = error_matrix(self.moments, (z + self.target).T, self.momentum, self.gain_times_c)
-        finite = np.isfinite(matrix).all(axis=(1, 2))
+        finite = np.isfinite(matrix.reshape(-1, 9).sum(axis=1))   # (a sum that overflows: replayed too)
         log_growth, since = self.log_growth.copy(), self.since.copy()
         asked = np.flatnonzero(finite & ((log_growth != 0.0) | ~is_hurwitz(matrix)))
         if len(asked):
@@ -176,6 +180,7 @@ class LebedevEstimates:
             out, failure = replayed(t, "estimator", stage, lambda: stage.estimate(t, measured[row], commanded[row]))
             if failure is not None:
                 failures[row] = failure
+                self.replayed.add(row)
             else:
                 z[:, row], log_growth[row] = stage.observer.z, stage.growth.log_growth
                 since[row] = np.nan if stage.growth.since is None else stage.growth.since
@@ -210,7 +215,8 @@ class LebedevTorques:
             if open_.any():
                 torque[open_] = 0.0
         failures = {}
-        for row in np.flatnonzero(~np.isfinite(torque).all(axis=1)).tolist():
+        finite = np.isfinite(torque.sum(axis=1))   # (a sum that overflows: replayed too)
+        for row in ([] if finite.all() else np.flatnonzero(~finite).tolist()):
             stage, given = self.stages[row], {key: value[row] for key, value in estimate.items()}
             out, failures[row] = replayed(t, "law", stage, lambda: stage.torque(t, given))
             if out is not None:

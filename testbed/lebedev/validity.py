@@ -48,11 +48,12 @@ def is_hurwitz(matrix):
     (..., 3, 3) (a batch's worlds) gives a boolean array of its shape (...)."""
     matrix = np.asarray(matrix, float)
     # one matrix in plain floats (every control period asks), a stack by its nine entries' arrays
-    (a, b, c), (d, e, f), (g, h, i) = matrix.tolist() if matrix.ndim == 2 else np.moveaxis(matrix, (-2, -1), (0, 1))
+    a, b, c, d, e, f, g, h, i = matrix.ravel().tolist() if matrix.ndim == 2 else matrix.reshape(-1, 9).T
     c1 = -(a + e + i)
     c2 = a * e - b * d + a * i - c * g + e * i - f * h
     c3 = -(a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g))
-    return (c1 > 0.0) & (c3 > 0.0) & (c1 * c2 > c3)
+    verdict = (c1 > 0.0) & (c3 > 0.0) & (c1 * c2 > c3)
+    return verdict if matrix.ndim == 2 else verdict.reshape(matrix.shape[:-2])
 
 
 class ErrorGrowth:

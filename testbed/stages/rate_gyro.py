@@ -106,6 +106,7 @@ class RateGyros:
             raise ValueError("the worlds' gyros have sampled differently: batch them from the start")
         self.y = np.array([stage.y for stage in self.stages], float)          # (N, 1)
         self.stamp = np.array([stage.stamp for stage in self.stages], float)  # (N, 1)
+        self.noisy, self.coarse = np.flatnonzero(self.sigma), np.flatnonzero(self.step)
         self.draws = np.zeros((len(self.stages), self.NOISE_BLOCK))
         self.drawn = np.full(len(self.stages), self.NOISE_BLOCK)  # the draws used of each world's block
 
@@ -114,6 +115,7 @@ class RateGyros:
         self.axis = self.axis[:, rows]
         for name in ("bias", "sigma", "step", "every_tick", "y", "stamp", "draws", "drawn"):
             setattr(self, name, getattr(self, name)[rows])
+        self.noisy, self.coarse = np.flatnonzero(self.sigma), np.flatnonzero(self.step)
 
     def settle(self, row: int) -> None:
         """The gyro's held sample and its tick count back in the world's own stage."""
@@ -122,30 +124,39 @@ class RateGyros:
 
     def _noise(self, rows: np.ndarray) -> np.ndarray:
         """The next standard-normal draw of each world at `rows`, from its own generator."""
-        for row in rows[self.drawn[rows] == self.NOISE_BLOCK].tolist():
-            self.draws[row] = self.stages[row].noise.rng.standard_normal(self.NOISE_BLOCK)
-            self.drawn[row] = 0
-        taken = self.draws[rows, self.drawn[rows]]
-        self.drawn[rows] += 1
-        return taken
+        drawn = self.drawn[rows]
+        if drawn.max() == self.NOISE_BLOCK:
+            for row in rows[drawn == self.NOISE_BLOCK].tolist():
+                self.draws[row] = self.stages[row].noise.rng.standard_normal(self.NOISE_BLOCK)
+            drawn[drawn == self.NOISE_BLOCK] = 0
+        self.drawn[rows] = drawn + 1
+        return self.draws[rows, drawn]
+
+    def _sampled(self) -> np.ndarray | slice:
+        """The rows that take a sample at this tick: all of them (a slice) when every world's gyro
+        samples now, as at every tick of the usual batch whose gyros sample at the call rate."""
+        due = self.tick % self.every_tick == 0
+        return slice(None) if due.all() else np.flatnonzero(due)
 
     def measure(self, t: float, plants: list) -> dict:
         """y (N, 1) [rad/s] and its time stamp (N, 1) [s], as each world's `RateGyro.measure`."""
         failures = {}
-        sampled = np.flatnonzero(self.tick % self.every_tick == 0)
-        if len(sampled):
-            omega = np.array([plants[row].omega() for row in sampled.tolist()]).T
+        sampled = self._sampled()
+        rows = np.arange(len(self.stages))[sampled]
+        if len(rows):
+            omega = np.array([plants[row].omega() for row in rows.tolist()]).T
+            sigma, step = self.sigma[sampled], self.step[sampled]
             with np.errstate(all="ignore"):   # a blown-up world's rate: its own estimator says so (its replay)
                 y = sensed_rate(self.axis[:, sampled], omega, self.bias[sampled])
-                noisy = self.sigma[sampled] != 0.0   # a noise-free gyro draws nothing
-                if noisy.any():
-                    y[noisy] += self.sigma[sampled][noisy] * self._noise(sampled[noisy])
-                coarse = self.step[sampled] != 0.0
-                if coarse.any():
-                    y[coarse] = quantised(y[coarse], self.step[sampled][coarse])
+                noisy = self.noisy if isinstance(sampled, slice) else np.flatnonzero(sigma)
+                if len(noisy):   # (a noise-free gyro draws nothing)
+                    y[noisy] += sigma[noisy] * self._noise(rows[noisy])
+                coarse = self.coarse if isinstance(sampled, slice) else np.flatnonzero(step)
+                if len(coarse):
+                    y[coarse] = quantised(y[coarse], step[coarse])
             self.y, self.stamp = self.y.copy(), self.stamp.copy()
             self.y[sampled, 0], self.stamp[sampled, 0] = y, t
-            failures = self._replay_overflows(t, plants, sampled[~np.isfinite(y)])
+            failures = self._replay_overflows(t, plants, rows[~np.isfinite(y)])
         self.tick += 1
         if failures:
             raise WorldsFailed(failures, {"y": self.y, "stamp": self.stamp})
