@@ -29,11 +29,11 @@ from typing import Literal
 import numpy as np
 
 from testbed.errors import InputError
+from testbed.lebedev.batched import LebedevEstimates, LebedevTorques
 from testbed.lebedev.end_momentum import check_end_momentum_held
 from testbed.lebedev.momentum import check_momentum_observable, idle_polar_angles
 from testbed.math.cross import cross3
 from testbed.math.rk4 import check_rk4_stable
-from testbed.lebedev.batched import LebedevEstimates, LebedevTorques
 from testbed.lebedev.observer import LebedevObserver, check_gains, check_observer_poles, lebedev_torque, output_error
 from testbed.lebedev.validity import ErrorGrowth
 from testbed.pipeline import MethodFailed, require_free_body, stage
@@ -117,7 +117,7 @@ class LebedevLaw:
 
     @classmethod
     def batched(cls, stages: list) -> LebedevTorques:
-        """The laws of a batch's worlds on (N, ...) arrays (testbed.batch.stage_forms)."""
+        """The laws of a batch's worlds on (N, ...) arrays (testbed.lebedev.batched)."""
         return LebedevTorques(stages)
 
     def torque(self, t, estimate):
@@ -205,7 +205,7 @@ class LebedevEstimator:
 
     @classmethod
     def batched(cls, stages: list) -> LebedevEstimates | None:
-        """The fixed-gain observers of a batch's worlds on (N, ...) arrays (testbed.batch.stage_forms);
+        """The fixed-gain observers of a batch's worlds on (N, ...) arrays (testbed.lebedev.batched);
         None (per world) for measured momentum (`LebedevEstimates.of`)."""
         return LebedevEstimates.of(stages)
 
