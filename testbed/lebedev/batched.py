@@ -123,9 +123,9 @@ class LebedevEstimates:
         return rk4_steps(self._derivative(closed, y_dev, slope, u), self.z, h, n)
 
     def _growth(self, t: float, h: float, z: np.ndarray) -> tuple:
-        """(ln growth, since) after the interval of length h [s] ending at t [s] with the estimates
-        z, each world's `ErrorGrowth.advance` (without its raise: a row at GROWTH_LIMIT is
-        replayed); rows whose test matrix is not finite keep the old values (they are replayed)."""
+        """(ln growth, since, finite) after the interval of length h [s] ending at t [s] with the
+        estimates z, each world's `ErrorGrowth.advance` (without its raise: a row at GROWTH_LIMIT
+        is replayed); rows whose test matrix is not `finite` keep the old values (they are replayed)."""
         matrix = error_matrix(self.moments, (z + self.target).T, self.momentum, self.gain_times_c)
         finite = np.isfinite(matrix.reshape(-1, 9).sum(axis=1))   # (a sum that overflows: replayed too)
         log_growth, since = self.log_growth.copy(), self.since.copy()
