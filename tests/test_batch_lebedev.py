@@ -12,9 +12,11 @@ may also be held to.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import testbed
 from testbed.batch import Batch
+from testbed.batch.stage_forms import PerWorld
 from testbed.lebedev.batched import LebedevEstimates, LebedevTorques
 from testbed.lebedev.observer import gyrostat_jacobian
 from testbed.lebedev.validity import is_hurwitz
@@ -147,3 +149,25 @@ def test_the_validity_test_on_a_stack_is_each_matrix_alone():
         assert jacobians[k].tobytes() == alone.tobytes()
         assert verdicts[k] == is_hurwitz(alone - shift[k]) == (np.linalg.eigvals(alone - shift[k]).real.max() < 0.0)
     assert 0 < verdicts.sum() < len(moments)
+
+
+def test_measured_momentum_observers_run_per_world_beside_the_batched_gyro_and_law():
+    """The measured-momentum observer (its information filter and held command its own stage's)
+    has no batched form: its slot runs per world, the gyro and the law batched around it, and
+    each world is still its single run."""
+    scenarios = [testbed.load("lebedev_spinup_cmg_momentum",
+                              ["sim.duration_s=20", f"initial.omega_deg_s=[{w}, -0.2, 0.1]"]) for w in (0.2, 0.35)]
+    singles = [testbed.run(scenario) for scenario in scenarios]
+    forms, batched = _batched(scenarios)
+    assert (forms["sensor"], forms["estimator"], forms["law"]) == (RateGyros, PerWorld, LebedevTorques)
+    for single, world in zip(singles, batched):
+        agree(single, world)
+
+
+def test_worlds_whose_observers_close_the_loop_at_different_times_are_refused_together():
+    """Before its start-up ends an observer withholds `omega`: worlds closing at different times
+    would give the law rows of different keys, so the batch refuses them, naming the field."""
+    plans = [prepare(testbed.load("lebedev_spinup_cmg", ["sim.duration_s=1", f"pipeline.estimator.startup_s={s}"]))
+             for s in (150, 120)]
+    with pytest.raises(ValueError, match="startup_s: batch them apart"):
+        Batch(plans)
