@@ -15,6 +15,7 @@ from typing import Protocol
 import numpy as np
 
 from testbed.run_core.stage_contract import SLOTS, Declared, StageFailed
+from testbed.run_core.tick import stage_failure
 
 
 class BatchedForm(Protocol):
@@ -39,6 +40,16 @@ class WorldsFailed(Exception):
     def __init__(self, failures: dict[int, StageFailed], outputs: dict):
         self.failures, self.outputs = failures, outputs
         super().__init__(f"{len(failures)} worlds failed")
+
+
+def replayed(t: float, slot: str, stage, call) -> tuple:
+    """(call(), None), `call` a world's own stage redoing its step at t [s] under the run's
+    floating-point errors (a batched form's way to fail a row exactly as its single run does),
+    or (None, the StageFailed a single run's tick makes of what it raised)."""
+    try:
+        return call(), None
+    except Exception as exc:   # (a signal's stop, a BaseException, goes through)
+        return None, stage_failure(t, slot, stage, exc)
 
 
 def rows_of(signals: dict, count: int) -> list[dict]:

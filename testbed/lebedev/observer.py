@@ -47,7 +47,36 @@ def lebedev_nonlinearity(a, x):
 
     Lebedev 1976, eq. 4.2 (the same function of z appears in the observer, eq. 4.6).
     """
-    return np.array([a[0] * x[1] * x[2], a[1] * x[0] * x[2], a[2] * x[0] * x[1]])
+    return np.array(quadratic_terms(a, x))
+
+
+def quadratic_terms(a, x) -> tuple:
+    """The three components of F(x) (`lebedev_nonlinearity`); a and x as three components each,
+    floats or arrays of one value per world (a batch's rows)."""
+    return a[0] * x[1] * x[2], a[1] * x[0] * x[2], a[2] * x[0] * x[1]
+
+
+def output_error(c, x, y_dev):
+    """y_dev - C x, the innovation in deviation form (eq. 4.3), for c and x given as three
+    components (floats, or arrays of one value per world); C x summed left to right, so a world's
+    row is its single run's to the bit (numpy's dot of two 3-vectors may round otherwise)."""
+    return y_dev - (c[0] * x[0] + c[1] * x[1] + c[2] * x[2])
+
+
+def startup_rates(linear, drift, gain, c, x, y_dev) -> list:
+    """The components of z' = A_s z + d + l (y_dev - C z) (eq. 3.1), given `linear` = A_s z and
+    the drift d, the gain l, C and z as three components each (floats, or arrays of one value per world)."""
+    error = output_error(c, x, y_dev)
+    return [lin + d + g * error for lin, d, g in zip(linear, drift, gain)]
+
+
+def fixed_gain_rates(linear, gain, a, c, x, y_dev, u) -> list:
+    """The components of z' = A z + l (y_dev - C z) + F(z) + u (Lebedev 1976, eq. 4.6), summed in
+    that order, given `linear` = A z and l, a, C, z, u as three components each (floats, or
+    arrays of one value per world: a batch's worlds in one call)."""
+    error = output_error(c, x, y_dev)
+    terms = zip(linear, gain, quadratic_terms(a, x), u)
+    return [lin + g * error + q + input_ for lin, g, q, input_ in terms]
 
 
 def observability_matrix(A, C):
@@ -191,7 +220,7 @@ def gyrostat_error_matrix(inertia, spin_rate, momentum):
 def gyrostat_jacobian(moments, w, momentum) -> np.ndarray:
     """d/dw of w' = I^-1 ((I w + H) x w), the free body holding internal momentum H:
     I^-1 ([(I w + H) x] - [w x] I), `moments` = (Ix, Iy, Iz) [kg m^2], w [rad/s], H [N m s];
-    w and H may be stacks (..., 3), giving (..., 3, 3).
+    moments, w and H may be stacks (..., 3) (a batch's worlds), giving (..., 3, 3).
 
     At w = (0, 0, Omega) it is `gyrostat_error_matrix` (A + I^-1 [H x]). Once the loop is closed
     it is also the linearisation of the observer error: the body feels M - w x I w + H x e and
@@ -207,10 +236,11 @@ def gyrostat_jacobian(moments, w, momentum) -> np.ndarray:
                          [-L[1] + w[1] * moments[0], L[0] - w[0] * moments[1], 0.0]]) / moments[:, None]
     w = np.broadcast_to(w, L.shape)
     zero = np.zeros(L.shape[:-1])
-    return np.stack([np.stack([zero, -L[..., 2] + w[..., 2] * moments[1], L[..., 1] - w[..., 1] * moments[2]], -1),
-                     np.stack([L[..., 2] - w[..., 2] * moments[0], zero, -L[..., 0] + w[..., 0] * moments[2]], -1),
-                     np.stack([-L[..., 1] + w[..., 1] * moments[0], L[..., 0] - w[..., 0] * moments[1], zero], -1)],
-                    -2) / moments[:, None]
+    i0, i1, i2 = moments[..., 0], moments[..., 1], moments[..., 2]
+    return np.stack([np.stack([zero, -L[..., 2] + w[..., 2] * i1, L[..., 1] - w[..., 1] * i2], -1),
+                     np.stack([L[..., 2] - w[..., 2] * i0, zero, -L[..., 0] + w[..., 0] * i2], -1),
+                     np.stack([-L[..., 1] + w[..., 1] * i0, L[..., 0] - w[..., 0] * i1, zero], -1)],
+                    -2) / moments[..., :, None]
 
 
 def lebedev_torque(inertia, k, z):
@@ -263,7 +293,7 @@ class LebedevObserver:
         self.a, self.A = lebedev_matrices(self.inertia, self.spin_rate)
         # the fixed-gain derivative's constants as floats (_fixed_gain_derivative)
         self._c_floats, self._a_floats = self.C.tolist(), self.a.tolist()
-        self._l_closed_floats = self.l_closed.tolist()
+        self._l_floats, self._l_closed_floats = self.l.tolist(), self.l_closed.tolist()
         if not max_substep > 0:
             raise InputError("observer.max_substep", f"must be > 0, got {max_substep}")
         self.max_substep = float(max_substep)
@@ -321,9 +351,8 @@ class LebedevObserver:
         z = state[:3]
         matrix, drift = self.startup_model(momentum)
         if not self.measured_momentum or momentum is None:  # (A z + d) + l e, in plain floats as below
-            error = self._output_error(z.tolist(), y_dev)
-            terms = zip((matrix @ z).tolist(), drift.tolist(), self.l.tolist())
-            return np.array([linear + d + g * error for linear, d, g in terms])
+            return np.array(startup_rates((matrix @ z).tolist(), drift.tolist(), self._l_floats, self._c_floats,
+                                          z.tolist(), y_dev))
         return self._filtered(state, matrix @ z + drift + lebedev_nonlinearity(self.a, z), y_dev, momentum)
 
     def closed_derivative(self, state, y_dev, u, momentum=None, compensated=None):
@@ -345,24 +374,14 @@ class LebedevObserver:
             model = model + (compensated - cross3(z + [0.0, 0.0, self.spin_rate], momentum)) / self.inertia
         return self._filtered(state, model, y_dev, momentum)
 
-    def _output_error(self, x: list, y_dev: float) -> float:
-        """y_dev - C x for the state x as plain floats, C x summed left to right as numpy's dot
-        of two 3-vectors does."""
-        c = self._c_floats
-        return y_dev - (c[0] * x[0] + c[1] * x[1] + c[2] * x[2])
-
     def _fixed_gain_derivative(self, z, y_dev, u: list) -> np.ndarray:
         """A z + l_closed (y_dev - C z) + F(z) + u (`closed_derivative` with the fixed gain; u as
-        three floats), summed in that order. Plain floats but for A z (numpy's matmul, whose
+        three floats, `fixed_gain_rates`). Plain floats but for A z (numpy's matmul, whose
         rounding it keeps): RK4 evaluates it four times a control period, and numpy's calls on
         3-vectors cost more than their arithmetic; the constants' floats are taken once
         (`__init__`), u's once a period (`step`)."""
-        x0, x1, x2 = x = z.tolist()
-        error = self._output_error(x, y_dev)
-        a0, a1, a2 = self._a_floats
-        quadratic = (a0 * x1 * x2, a1 * x0 * x2, a2 * x0 * x1)  # lebedev_nonlinearity(a, x)
-        terms = zip((self.A @ z).tolist(), self._l_closed_floats, quadratic, u)
-        return np.array([linear + g * error + q + input_ for linear, g, q, input_ in terms])
+        return np.array(fixed_gain_rates((self.A @ z).tolist(), self._l_closed_floats, self._a_floats,
+                                         self._c_floats, z.tolist(), y_dev, u))
 
     def hold_total_momentum(self, modelled, measured) -> None:
         """Re-anchor the estimate on a measured internal momentum: keep the total momentum in

@@ -29,11 +29,12 @@ from typing import Literal
 import numpy as np
 
 from testbed.errors import InputError
+from testbed.lebedev.batched import LebedevEstimates, LebedevTorques
 from testbed.lebedev.end_momentum import check_end_momentum_held
 from testbed.lebedev.momentum import check_momentum_observable, idle_polar_angles
 from testbed.math.cross import cross3
 from testbed.math.rk4 import check_rk4_stable
-from testbed.lebedev.observer import LebedevObserver, check_gains, check_observer_poles, lebedev_torque
+from testbed.lebedev.observer import LebedevObserver, check_gains, check_observer_poles, lebedev_torque, output_error
 from testbed.lebedev.validity import ErrorGrowth
 from testbed.pipeline import MethodFailed, require_free_body, stage
 from testbed.scenario.schema import join, param
@@ -113,6 +114,11 @@ class LebedevLaw:
         self.target = np.array([0.0, 0.0, params.omega_ref])
         with scenario_fields({"control.gains": "pipeline.law.gains_per_s", "body.inertia": "model.inertia_kg_m2"}):
             self.k = check_gains(self.inertia, params.omega_ref, params.gains_per_s)
+
+    @classmethod
+    def batched(cls, stages: list) -> LebedevTorques:
+        """The laws of a batch's worlds on (N, ...) arrays (testbed.lebedev.batched)."""
+        return LebedevTorques(stages)
 
     def torque(self, t, estimate):
         closed = bool(np.asarray(estimate.get("closed_loop", [1.0]))[0])
@@ -196,6 +202,12 @@ class LebedevEstimator:
             self.observer.inertia, self.observer.spin_rate,
             np.zeros(3) if params.design_momentum_nms is None else params.design_momentum_nms,
             self.observer.l_closed, self.observer.C)
+
+    @classmethod
+    def batched(cls, stages: list) -> LebedevEstimates | None:
+        """The fixed-gain observers of a batch's worlds on (N, ...) arrays (testbed.lebedev.batched);
+        None (per world) for measured momentum (`LebedevEstimates.of`)."""
+        return LebedevEstimates.of(stages)
 
     def _check_momentum(self, ctx, startup: float) -> None:
         """Refuse, before the run, momentum one gyro cannot work with: an idle cluster whose H(0)
@@ -306,7 +318,7 @@ class LebedevEstimator:
                     self.growth.advance(t, h, self.observer.omega_estimate())
         self._t_prev, self._y_prev = t, y
         obs = self.observer
-        innovation = y - obs.C[2] * obs.spin_rate - obs.C @ obs.z
+        innovation = output_error(obs.C.tolist(), obs.z.tolist(), y - obs.C[2] * obs.spin_rate)
         closed = t >= self.startup
         omega = obs.omega_estimate()
         out = {"z": obs.z.copy(), "omega_estimate": omega,

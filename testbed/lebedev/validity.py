@@ -42,14 +42,18 @@ def error_growth_rate(moments, w_hat, momentum, gain, sensor_axis) -> float:
     return float(np.linalg.eigvals(matrix).real.max())
 
 
-def is_hurwitz(matrix) -> bool:
+def is_hurwitz(matrix):
     """Whether every eigenvalue of the 3x3 `matrix` has a negative real part, by the Routh-Hurwitz
-    conditions on det(sI - M) = s^3 + c1 s^2 + c2 s + c3: c1, c3 > 0 and c1 c2 > c3."""
-    (a, b, c), (d, e, f), (g, h, i) = np.asarray(matrix, float).tolist()
+    conditions on det(sI - M) = s^3 + c1 s^2 + c2 s + c3: c1, c3 > 0 and c1 c2 > c3. A stack
+    (..., 3, 3) (a batch's worlds) gives a boolean array of its shape (...)."""
+    matrix = np.asarray(matrix, float)
+    # one matrix in plain floats (every control period asks), a stack by its nine entries' arrays
+    a, b, c, d, e, f, g, h, i = matrix.ravel().tolist() if matrix.ndim == 2 else matrix.reshape(-1, 9).T
     c1 = -(a + e + i)
     c2 = a * e - b * d + a * i - c * g + e * i - f * h
     c3 = -(a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g))
-    return c1 > 0.0 and c3 > 0.0 and c1 * c2 > c3
+    verdict = (c1 > 0.0) & (c3 > 0.0) & (c1 * c2 > c3)
+    return verdict if matrix.ndim == 2 else verdict.reshape(matrix.shape[:-2])
 
 
 class ErrorGrowth:

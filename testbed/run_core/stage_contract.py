@@ -87,7 +87,8 @@ class Declared:
     applied: Callable | None = None    # applied() -> {parameter: value as the stage runs it}, where that
     #                                    differs from `params` (testbed.campaign.applied_values)
     batched: Callable | None = None    # classmethod batched(stages) -> its form on many worlds' (N, ...)
-    #                                    arrays (testbed.batch.stage_forms.BatchedForm); None: per world
+    #                                    arrays (testbed.batch.stage_forms.BatchedForm), or None for
+    #                                    stages it does not take; None: per world
 
     @classmethod
     def of(cls, stage) -> "Declared":

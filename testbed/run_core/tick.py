@@ -17,6 +17,15 @@ def _is_builtin(stage_object) -> bool:
 
 
 
+def stage_failure(t: float, slot: str, stage_object, exc: Exception) -> StageFailed:
+    """The StageFailed that `exc`, raised at t [s] by `stage_object` in `slot`, ends a run with:
+    its method's own limit (MethodFailed, status method_failed) or the stage's failure."""
+    name = Declared.of(stage_object).type_name or type(stage_object).__name__
+    if isinstance(exc, MethodFailed):
+        return StageFailed(t, slot, name, exc.reason, method=True)
+    return StageFailed(t, slot, name, described(exc))
+
+
 class Pipeline:
     """One control tick: run the four stages in order and hand the command to the plant.
 
@@ -136,10 +145,7 @@ class Pipeline:
         (an output check's) and a signal's stop as they are."""
         if isinstance(exc, StageFailed) or from_a_signal(exc):
             raise exc
-        name = self.declared[slot].type_name or type(self.stages()[slot]).__name__
-        if isinstance(exc, MethodFailed):
-            raise StageFailed(t, slot, name, exc.reason, method=True) from exc
-        raise StageFailed(t, slot, name, described(exc)) from exc
+        raise stage_failure(t, slot, self.stages()[slot], exc) from exc
 
     def sense(self, t: float, plant) -> None:
         """Sensor and estimator at time t: the first half of `tick`, and alone a sample between
