@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from testbed.batch.batch_recorder import BatchRecorder
+from testbed.batch.physics_threads import PhysicsThreads
 from testbed.batch.plant_group import group_of
 from testbed.batch.stage_forms import WorldsFailed, declared_alike, forms_of
 from testbed.run_core.in_progress import STOPPING, RunInProgress, one_blas_thread
@@ -29,7 +30,8 @@ class Batch:
     `run_scenario` would: same status, metrics and checks; bit for bit where every slot runs per
     world, to the batched forms' round-off otherwise). `outs`: each world's `.rrd` path or None."""
 
-    def __init__(self, plans: list[RunPlan], outs: list | None = None, keep_data: bool = False):
+    def __init__(self, plans: list[RunPlan], outs: list | None = None, keep_data: bool = False,
+                 threads: int = 1):
         if not plans:
             raise ValueError("a batch needs at least one world")
         timing = plans[0].timing
@@ -48,6 +50,7 @@ class Batch:
         self.live = np.arange(len(plans))  # the worlds still going, in order
         self.pipelines = pipelines
         self.group = group_of([plan.plant for plan in plans], timing.steps_per_tick)
+        self.physics = PhysicsThreads(threads)
         self.recorder = BatchRecorder([run.recorder for run in self.runs])
         self.outputs = {group: {} for group in SIGNAL_GROUPS}  # the last tick's, rows of the live worlds
         self.ticks_done = 0
@@ -57,6 +60,7 @@ class Batch:
 
     def __exit__(self, *exc_info) -> bool:
         """Close every world's trace (removed if the block ends by an exception)."""
+        self.physics.close()
         result = False
         for run in self.runs:
             result = run.__exit__(*exc_info) or result
@@ -94,7 +98,7 @@ class Batch:
             self._tick(t, first)
             if k == first and k % timing.trace_every == 0:
                 self._sample(t)
-            self.group.step()
+            self.physics.run(self.group.step_calls())
         self._leave(self.group.check_state(first * tc, (last - first) * steps), first)
 
     def _tick(self, t: float, block_start: int) -> None:
@@ -188,8 +192,9 @@ class Batch:
         return [run.finish() for run in self.runs]
 
 
-def run_batch(plans: list[RunPlan], outs: list | None = None, keep_data: bool = False) -> list:
-    """Run the plans' worlds in lockstep to their end: each world's RunResult, in order (`Batch`)."""
-    with Batch(plans, outs, keep_data) as batch:
+def run_batch(plans: list[RunPlan], outs: list | None = None, keep_data: bool = False, threads: int = 1) -> list:
+    """Run the plans' worlds in lockstep to their end: each world's RunResult, in order (`Batch`;
+    `threads`: the physics' threads, testbed.batch.physics_threads)."""
+    with Batch(plans, outs, keep_data, threads) as batch:
         batch.advance(batch.timing.n_ticks)
         return batch.finish()

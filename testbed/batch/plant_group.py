@@ -71,8 +71,13 @@ class PerWorldPlants:
 
     def step(self) -> None:
         """One control tick of physics in every world (each world's own `Plant.stepper`)."""
-        for advance in self.steppers:
+        for advance in self.step_calls():
             advance()
+
+    def step_calls(self) -> list:
+        """The calls that step each world one control tick, one per world, independent of each
+        other (a batch may run them on several threads: testbed.batch.physics_threads)."""
+        return self.steppers
 
     def check_state(self, t0: float, nstep: int) -> dict:
         """row -> SimulationDiverged of each world whose physics met a bad state within the `nstep`

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from testbed.batch.physics_threads import PhysicsThreads
 from testbed.batch.plant_group import group_of
 from testbed.batch.stage_forms import WorldsFailed, declared_alike, forms_of
 from testbed.run_core.in_progress import STOPPING, one_blas_thread, stopped_by
@@ -55,7 +56,7 @@ class SteppedBatch:
     """N worlds, one per plan (all of one timing, one rate), stepped together by `step`; `restart`
     puts new plans in some rows. `status`, `error` and `ticks` per row; `plants` the rows' plants."""
 
-    def __init__(self, plans: list[RunPlan]):
+    def __init__(self, plans: list[RunPlan], threads: int = 1):
         if not plans:
             raise ValueError("a stepped batch needs at least one world")
         self.timing = plans[0].timing
@@ -66,6 +67,7 @@ class SteppedBatch:
         self.status, self.error = ["ok"] * n, [None] * n
         self.ticks = np.zeros(n, dtype=int)
         self.cohorts: list[Cohort] = []
+        self.physics = PhysicsThreads(threads)  # the worlds' physics on this many threads
         self.restart(np.arange(n), plans)
 
     @property
@@ -144,7 +146,7 @@ class SteppedBatch:
         self._stop(cohort, failed, t)
         if not len(cohort.rows):
             return
-        group.step()
+        self.physics.run(group.step_calls())
         self._stop(cohort, group.check_state(t, timing.steps_per_tick))
         cohort.ticks += 1
         self.ticks[cohort.rows] = cohort.ticks

@@ -17,6 +17,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
+from testbed.batch.physics_threads import idle_cores
 from testbed.batch.stepped import SteppedBatch
 from testbed.errors import InputError
 from testbed.gym.slew_env import CmgSlewEnv
@@ -134,6 +135,8 @@ class SteppedVectorEnv(gymnasium.vector.VectorEnv):
         return observations, rewards, terminated, truncated, infos
 
     def close_extras(self, **kwargs) -> None:
+        if self._batch is not None:
+            self._batch.physics.close()
         self._batch = None
 
     # --- inside ------------------------------------------------------------------------------
@@ -145,7 +148,10 @@ class SteppedVectorEnv(gymnasium.vector.VectorEnv):
         plans = [prepare(self._episodes.scenario(case_seed(self._rngs[row], self._disperses)), stepped=True)
                  for row in rows.tolist()]
         if self._batch is None or len(rows) == self.num_envs:
-            self._batch = SteppedBatch(plans)
+            if self._batch is not None:
+                self._batch.physics.close()
+            # alone in its process, the environment steps its worlds' physics on every core it may use
+            self._batch = SteppedBatch(plans, threads=idle_cores())
         else:
             self._batch.restart(rows, plans)
         for row, plan in zip(rows.tolist(), plans):

@@ -16,6 +16,7 @@ module's (they do on the machines measured; elsewhere an ulp of the angle's sine
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -331,10 +332,10 @@ class CmgPlantGroup(PerWorldPlants):
                      + (turning[..., 0] + turning[..., 1] + turning[..., 2]) * x)
 
     # --- physics -------------------------------------------------------------------------
-    def step(self) -> None:
-        """One control tick of physics in every world: a world whose gimbal command jumped by more
-        than its threshold since the last tick steps this tick and the ticks of its window finer
-        (JumpRefinement.advance), the others at the model's timestep."""
+    def step_calls(self) -> list:
+        """The calls that step each world one control tick: a world whose gimbal command jumped by
+        more than its threshold since the last tick steps this tick and the ticks of its window
+        finer (JumpRefinement.advance), the others at the model's timestep."""
         self._read()
         commands = self.ctrl[:, self._rates_ctrl].copy()
         jumped = np.abs(commands - self.jump_last).max(axis=1) > self.jump_threshold
@@ -343,11 +344,6 @@ class CmgPlantGroup(PerWorldPlants):
         refine = self.time < self.jump_until - 1e-9 * self.jump_window
         self._fresh = False
         if not refine.any():
-            for advance in self._coarse:
-                advance()
-            return
-        for finer, plant, advance, fine in zip(refine.tolist(), self.plants, self._coarse, self._fine):
-            if finer:
-                plant.jumps.advance_fine(fine)
-            else:
-                advance()
+            return self._coarse
+        return [functools.partial(plant.jumps.advance_fine, fine) if finer else advance
+                for finer, plant, advance, fine in zip(refine.tolist(), self.plants, self._coarse, self._fine)]
