@@ -93,6 +93,12 @@ def limited_rows(J, h, beta_rate, beta_rate_max, measure, rank, bounds=None) -> 
         beta_rate, k = apply_rate_limit_rows(beta_rate, beta_rate_max)
     else:
         beta_rate, k = apply_rate_bounds_rows(beta_rate, *bounds)
-    delivered = h[:, None] * (J @ beta_rate[:, :, None])[:, :, 0]
+    # h J b' summed over the units left to right, as the single min-max law sums it (a stacked
+    # matmul may add in another order and move a world's torque by an ulp)
+    terms = J * beta_rate[:, None, :]
+    total = terms[..., 0]
+    for unit in range(1, terms.shape[-1]):
+        total = total + terms[..., unit]
+    delivered = h[:, None] * total
     status = STATUS_CODES[RATE_LIMITED] * (k < 1.0) + STATUS_CODES[RANK_DEFICIENT] * (rank < 3)
     return SteeringRows(beta_rate, delivered, k, measure, rank, status)
