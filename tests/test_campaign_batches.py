@@ -85,6 +85,8 @@ def test_a_batch_fits_its_memory_and_every_worker_gets_one():
     cases = [case(i, timing(0.01), big) for i in range(7)]
     groups = batches(cases, workers=1)
     assert [len(g) for g in groups] == [2, 2, 1, 2]  # 4 batches: ceil(7 / 2), spread evenly
+    # on 2 workers, 5 cases that need 3 batches take 4 (two rounds of 2), not 3 (a last one alone)
+    assert [len(g) for g in batches(cases[:5], workers=2)] == [1, 1, 2, 1]
     assert sorted(c.index for g in groups for c in g) == list(range(7))
     small = [case(i, timing(0.01)) for i in range(10)]
     assert [len(g) for g in batches(small, workers=3)] == [3, 4, 3]

@@ -16,7 +16,11 @@ import math
 from testbed.errors import InputError, quoted
 from testbed.recording.recorder import CHUNK_ROWS
 
-BATCH_MEMORY_BYTES = 512 * 2**20  # one batch's worlds (a worker runs one batch at a time)
+# One batch's worlds, by `world_bytes` (a worker runs one batch at a time). The bound counts the
+# whole arena MuJoCo reserves for each world's data (14 MiB for the 4-CMG bus), of which a step
+# touches a few kB: a flagship world's resident memory is about 3.5 MB (docs/validation.md "Memory
+# per world"), so 2 GiB by the bound (68 flagship worlds) is about 240 MB resident.
+BATCH_MEMORY_BYTES = 2 * 2**30
 # Numbers in one trace sample of a world: the shipped CMG campaigns record 60 to 90 (truth and
 # the four slots' outputs); a bound, for a world whose outputs are only known once it runs.
 SAMPLE_WIDTH = 256
@@ -43,8 +47,8 @@ def batchable(case) -> bool:
 
 def batches(cases: list, workers: int, size: int | None = None) -> list[list]:
     """`cases` in batches, in case order within each: the batchable ones of one timing together,
-    at most `size` a batch (None: as many as BATCH_MEMORY_BYTES holds, spread evenly so that each
-    of `workers` gets at least one batch), every other case alone."""
+    at most `size` a batch (None: as many as BATCH_MEMORY_BYTES holds, spread evenly over a whole
+    number of rounds of `workers`, each getting at least one batch), every other case alone."""
     groups: dict = {}
     alone = []
     for case in cases:
@@ -55,7 +59,10 @@ def batches(cases: list, workers: int, size: int | None = None) -> list[list]:
     result = []
     for group in groups.values():
         cap = size or max(1, BATCH_MEMORY_BYTES // max(case.prepared["world_bytes"] for case in group))
-        count = max(math.ceil(len(group) / cap), min(workers, len(group)))
+        # as many batches as the memory asks, then a whole number of rounds of the workers: a last
+        # batch alone on one worker would hold the campaign's end while the others idle
+        needed = math.ceil(len(group) / cap)
+        count = min(len(group), max(workers * math.ceil(needed / workers), min(workers, len(group))))
         bounds = [round(i * len(group) / count) for i in range(count + 1)]
         result += [group[a:b] for a, b in zip(bounds, bounds[1:])]
     return sorted(result + alone, key=lambda batch: batch[0].index)
