@@ -18,7 +18,7 @@ import gymnasium
 import numpy as np
 
 from testbed.errors import InputError
-from testbed.gym.cluster_limits import ClusterLimits, scaled, singularity_measures
+from testbed.gym.cluster_limits import ClusterLimits, held_momenta, scaled, singularity_measures
 from testbed.gym.stepped_env import SteppedEnv, norms
 from testbed.math.quaternion import quat_conj, quat_mul, rotation_vector
 from testbed.math.validation import positive_number
@@ -141,10 +141,11 @@ class CmgSlewEnv(SteppedEnv):
         return {"allocator": {"gimbal_rates": actions * self.limits.gimbal_rate_max}}
 
     def read(self, plants):
-        beta = np.array([plant.actuator_state()["gimbal_angle"] for plant in plants], dtype=np.float64)
+        read = [plant.actuator_state() for plant in plants]
+        actuators = {key: np.array([values[key] for values in read], dtype=np.float64) for key in read[0]}
+        beta = actuators["gimbal_angle"]
         return {"quat": np.array([plant.quat() for plant in plants]), "omega": np.array([plant.omega() for plant in plants]),
-                "gimbal_angle": beta,
-                "internal_momentum": np.array([plant.internal_momentum_body() for plant in plants]),
+                "gimbal_angle": beta, "internal_momentum": held_momenta(plants, actuators),
                 "singularity_measure": singularity_measures(plants, beta)}
 
     def observations(self, state, episodes):

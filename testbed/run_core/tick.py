@@ -168,51 +168,34 @@ class Pipeline:
     # --- one slot at a time, for a world of a batch (testbed.batch.stage_forms.PerWorld) ---------
     def run_sensor(self, t: float, plant) -> dict:
         """The sensor's measurement at t, checked as in `tick` ({} from a built-in empty slot)."""
-        try:
-            if not self._sensing:
-                return {}
-            out = self.sensor.measure(t, plant)
-            if self._sensor_check is not None:
-                self._sensor_check(t, out)
-            return out
-        except BaseException as exc:
-            self._raise_failure(t, "sensor", exc)
+        return self._checked("sensor", t, self._sensing, lambda: self.sensor.measure(t, plant), self._sensor_check)
 
     def run_estimator(self, t: float, measurement: dict, command: dict) -> dict:
         """The estimator's output at t, checked as in `tick`."""
-        try:
-            if not self._estimating:
-                return {}
-            out = self.estimator.estimate(t, measurement, command)
-            if self._estimator_check is not None:
-                self._estimator_check(t, out)
-            return out
-        except BaseException as exc:
-            self._raise_failure(t, "estimator", exc)
+        return self._checked("estimator", t, self._estimating,
+                             lambda: self.estimator.estimate(t, measurement, command), self._estimator_check)
 
     def run_law(self, t: float, given: dict) -> dict:
         """The law's demand at t from `given` (the estimate, with the internal momentum if it reads it)."""
-        try:
-            if not self._controlling:
-                return {}
-            out = self.law.torque(t, given)
-            if self._law_check is not None:
-                self._law_check(t, out)
-            return out
-        except BaseException as exc:
-            self._raise_failure(t, "law", exc)
+        return self._checked("law", t, self._controlling, lambda: self.law.torque(t, given), self._law_check)
 
     def run_allocator(self, t: float, demand: dict, estimate: dict, actuators: dict) -> dict:
         """The allocator's command at t, checked as in `tick`."""
+        return self._checked("allocator", t, self._allocating,
+                             lambda: self.allocator.allocate(t, demand, estimate, actuators), self._allocator_check)
+
+    def _checked(self, slot: str, t: float, runs: bool, call, check) -> dict:
+        """call()'s output, checked by `check` (None: not checked), or {} when the slot does not run;
+        a failure raised as `tick` raises it."""
         try:
-            if not self._allocating:
+            if not runs:
                 return {}
-            out = self.allocator.allocate(t, demand, estimate, actuators)
-            if self._allocator_check is not None:
-                self._allocator_check(t, out)
+            out = call()
+            if check is not None:
+                check(t, out)
             return out
         except BaseException as exc:
-            self._raise_failure(t, "allocator", exc)
+            self._raise_failure(t, slot, exc)
 
     def statistics(self) -> dict:
         """slot -> the statistics of each stage that keeps them (`Declared.statistics`), as they are now."""
