@@ -5,8 +5,11 @@
 
 The first K cases of SCENARIO (default lebedev_spinup_campaign, the flagship's campaign), cut
 to --duration simulated seconds, are measured four ways on this machine, side by side:
-  - bare physics: each case's plant built, then `mj_step` over the run's steps in one call (no
-    stage, no recorder: the floor a case cannot beat), its CPU time summed over the cases;
+  - bare physics: the CPU time of MuJoCo's steps of the cases' own runs (their worlds stepped
+    in one batch in this process, the time inside the physics calls alone: the floor a case
+    cannot beat). Not `mj_step` over the run's steps in one call, printed beside it: without
+    the run's commands the state stays near its start, where the steps cost up to 1.7 times
+    more (measured 238 against 142 ms a 100 s flagship case);
   - one by one: each case's `run_case` in this process, summed (a single run's wall and CPU time);
   - the campaign's run on --workers local workers (rows of testbed.campaign.rows.run_cases on
     one started engine, so the cluster's start, the cases' builds for read-back and the summary
@@ -46,6 +49,27 @@ from testbed.run_core.plan import prepare
 from testbed.scenario.loading import parse
 
 BATCHED_REL, ABS_FLOOR = 1e-9, 1e-13  # tests/test_batch_lockstep.py
+
+
+def run_physics_s(cases) -> float:
+    """Sum over the cases of the CPU time inside MuJoCo's steps of their own runs [s]: the cases
+    stepped as one batch in this process, the physics calls timed (testbed.batch.physics_threads)."""
+    from testbed.batch import physics_threads, run_batch
+
+    spent = [0.0]
+    each = physics_threads._each
+
+    def timed(calls):
+        start = time.process_time()
+        each(calls)
+        spent[0] += time.process_time() - start
+
+    physics_threads._each = timed
+    try:
+        run_batch([prepare(parse(case.data, case.source)) for case in cases])
+    finally:
+        physics_threads._each = each
+    return spent[0]
 
 
 def bare_physics_s(cases) -> float:
@@ -124,7 +148,8 @@ def main() -> None:
     cases = cases[:args.cases]
     if len(cases) != args.cases:
         raise SystemExit(f"{args.scenario} has {len(cases)} cases with these overrides, not {args.cases}")
-    bare = bare_physics_s(cases) / len(cases)
+    one_call = bare_physics_s(cases) / len(cases)
+    bare = run_physics_s(cases) / len(cases)
     single, single_cpu = one_by_one_s(cases)
     walls: dict[str, list] = {"batched": [], "batch size 1": []}
     cpus: dict[str, list] = {"batched": [], "batch size 1": []}
@@ -152,7 +177,8 @@ def main() -> None:
                     rows[kind] = found
     print(f"{args.scenario}: {len(cases)} cases of {args.duration:g} s on {args.workers} workers "
           f"(median of {args.repeat}); load average {os.getloadavg()[0]:.1f}")
-    print(f"  bare physics   {bare * 1e3:8.1f} ms CPU a case (mj_step over the run's steps)")
+    print(f"  bare physics   {bare * 1e3:8.1f} ms CPU a case (MuJoCo's steps of the runs themselves; "
+          f"{one_call * 1e3:.1f} ms as one mj_step call from the start)")
     print(f"  one by one     {single:8.2f} s wall for the {len(cases)} cases, {single_cpu / len(cases) / bare:.2f}x "
           f"the bare physics a case in CPU")
     for kind, times in walls.items():
