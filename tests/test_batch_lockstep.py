@@ -155,3 +155,17 @@ def test_physics_on_two_threads_changes_no_world_by_a_bit():
     for one, two in zip(alone, threaded):
         assert one.metrics == two.metrics
         assert np.array_equal(one.trace["truth/omega"][1], two.trace["truth/omega"][1])
+
+
+def test_a_batch_closed_before_its_end_is_each_run_closed_there():
+    scenarios = [testbed.load("lebedev_spinup_cmg", ["sim.duration_s=20", f"initial.omega_deg_s=[{w}, -0.2, 0.1]"])
+                 for w in (0.1, 0.2, 0.3, 0.4)]
+    with Batch([prepare(s) for s in scenarios]) as batch:
+        batch.advance(123)
+        batched = batch.finish()
+    for scenario, world in zip(scenarios, batched):
+        sim = testbed.Simulation(scenario)
+        for _ in range(123):
+            sim.step()
+        agree(sim.close(), world)
+        assert world.sim_s == pytest.approx(123 * 0.05)

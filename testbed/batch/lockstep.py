@@ -184,11 +184,14 @@ class Batch:
             run.stop(exc)
 
     def finish(self) -> list:
-        """Each world's RunResult, in the order of the plans (a world still going, its plant's
-        state written back first: its result samples the truth where it stopped)."""
+        """Each world's RunResult, in the order of the plans (a world still going, its stages' and
+        plant's state written back first: its result is that of a run closed where it stopped)."""
         if self.running:
-            for row in range(len(self.live)):
-                self.group.settle(row)
+            self.recorder.flush()
+            for row, world in enumerate(self.live.tolist()):
+                for form in (*self.forms.values(), self.group):
+                    form.settle(row)
+                self.runs[world].ticks_done = self.ticks_done
         return [run.finish() for run in self.runs]
 
 
