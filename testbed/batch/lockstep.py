@@ -15,7 +15,7 @@ import numpy as np
 from testbed.batch.batch_recorder import BatchRecorder
 from testbed.batch.physics_threads import PhysicsThreads
 from testbed.batch.plant_group import group_of
-from testbed.batch.stage_forms import WorldsFailed, declared_alike, forms_of
+from testbed.batch.stage_forms import WorldsFailed, declared_alike, forms_of, tick_slots
 from testbed.run_core.in_progress import STOPPING, RunInProgress, one_blas_thread
 from testbed.run_core.loop import CHECK_EVERY_TICKS, block_ticks
 from testbed.run_core.plan import RunPlan
@@ -103,25 +103,9 @@ class Batch:
 
     def _tick(self, t: float, block_start: int) -> None:
         """The four slots at time t on the live worlds, then each world's command to its plant."""
-        outputs, forms, group = self.outputs, self.forms, self.group
-        outputs["sensor"] = self._slot(t, block_start, lambda: forms["sensor"].measure(t, group.plants))
-        outputs["estimator"] = self._slot(t, block_start, lambda: forms["estimator"].estimate(
-            t, outputs["sensor"], outputs["allocator"]))
-        given = {}
-        if "internal_momentum" in self.declared["law"].inputs:
-            given = {"internal_momentum": self._slot(t, block_start, group.internal_momentum_body)}
-        given = outputs["estimator"] | given  # (after the read: a world it failed has left the estimates too)
-        outputs["law"] = self._slot(t, block_start, lambda: forms["law"].torque(t, given))
-        actuators = (self._slot(t, block_start, group.actuator_state)
-                     if self.declared["allocator"].needs_actuators else {})
-        outputs["allocator"] = self._slot(t, block_start, lambda: forms["allocator"].allocate(
-            t, outputs["law"], outputs["estimator"], actuators))
-        failed = {}
-        for row, exc in group.apply(outputs["allocator"]).items():
-            try:  # the plant refusing its command is the allocator's failure, as in a single run's tick
-                self.pipelines[self.live[row]]._raise_failure(t, "allocator", exc)
-            except StageFailed as failure:
-                failed[row] = failure
+        failed = tick_slots(t, self.forms, self.group, self.declared, self.outputs,
+                            lambda _, call: self._slot(t, block_start, call),
+                            lambda: [self.pipelines[world] for world in self.live.tolist()])
         self._leave(failed, block_start, t)
 
     def _slot(self, t: float, block_start: int, call):

@@ -136,3 +136,34 @@ def declared_alike(pipelines: list, slot: str) -> Declared:
         if (other.needs_actuators, other.inputs, other.output) != (first.needs_actuators, first.inputs, first.output):
             raise ValueError(f"the worlds' {slot} stages read or command differently: batch them apart")
     return first
+
+
+def tick_slots(t: float, forms: dict, group, declared: dict, outputs: dict, take, pipelines,
+               given=frozenset()) -> dict:
+    """One control tick of the four slots at t [s] on the live worlds' rows, into `outputs` (slot
+    -> {key: (N, ...)}, the last tick's allocator output read by the estimator), then each world's
+    command to its plant (`group.apply`). `take(slot, call)` gives a slot's outputs, or the plants'
+    read-outs, from `call()` with the worlds it failed gone (the caller's rule for a world that
+    leaves); `given`: the slots whose outputs `take` supplies itself (their stages and the reads
+    only they need are skipped); `pipelines()`: the live worlds' pipelines once the slots have run.
+    Returns row -> the StageFailed of each world whose plant refused its command (the
+    allocator's failure, as in a single run's tick)."""
+    outputs["sensor"] = take("sensor", lambda: forms["sensor"].measure(t, group.plants))
+    outputs["estimator"] = take("estimator", lambda: forms["estimator"].estimate(
+        t, outputs["sensor"], outputs["allocator"]))
+    momentum = {}
+    if "law" not in given and "internal_momentum" in declared["law"].inputs:
+        momentum = {"internal_momentum": take(None, group.internal_momentum_body)}
+    estimate = outputs["estimator"] | momentum  # (after the read: a world it failed has left the estimates too)
+    outputs["law"] = take("law", lambda: forms["law"].torque(t, estimate))
+    actuators = (take(None, group.actuator_state)
+                 if "allocator" not in given and declared["allocator"].needs_actuators else {})
+    outputs["allocator"] = take("allocator", lambda: forms["allocator"].allocate(
+        t, outputs["law"], outputs["estimator"], actuators))
+    failed = {}
+    for row, exc in group.apply(outputs["allocator"]).items():
+        try:
+            pipelines()[row]._raise_failure(t, "allocator", exc)
+        except StageFailed as failure:
+            failed[row] = failure
+    return failed

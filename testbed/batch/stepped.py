@@ -17,10 +17,10 @@ import numpy as np
 
 from testbed.batch.physics_threads import PhysicsThreads
 from testbed.batch.plant_group import group_of
-from testbed.batch.stage_forms import WorldsFailed, declared_alike, forms_of
+from testbed.batch.stage_forms import WorldsFailed, declared_alike, forms_of, tick_slots
 from testbed.run_core.in_progress import STOPPING, one_blas_thread, stopped_by
 from testbed.run_core.plan import RunPlan
-from testbed.run_core.stage_contract import SLOTS, StageFailed
+from testbed.run_core.stage_contract import SLOTS
 
 
 class Cohort:
@@ -118,31 +118,15 @@ class SteppedBatch:
         command to its plant, the physics to t + Tc, then a look for a bad state."""
         timing = self.timing
         t = cohort.ticks * timing.control_period_s
-        outputs, forms, group = cohort.outputs, cohort.forms, cohort.group
+        group = cohort.group
 
-        def slot(name, call):
+        def take(name, call):
             if name in given:
                 return {key: np.asarray(values)[cohort.rows] for key, values in given[name].items()}
             return self._slot(cohort, t, call)
 
-        outputs["sensor"] = slot("sensor", lambda: forms["sensor"].measure(t, group.plants))
-        outputs["estimator"] = slot("estimator", lambda: forms["estimator"].estimate(
-            t, outputs["sensor"], outputs["allocator"]))
-        momentum = {}
-        if "law" not in given and "internal_momentum" in cohort.declared["law"].inputs:
-            momentum = {"internal_momentum": self._slot(cohort, t, group.internal_momentum_body)}
-        estimate = outputs["estimator"] | momentum  # (after the read: a world it stopped has left the estimates too)
-        outputs["law"] = slot("law", lambda: forms["law"].torque(t, estimate))
-        actuators = (self._slot(cohort, t, group.actuator_state)
-                     if "allocator" not in given and cohort.declared["allocator"].needs_actuators else {})
-        outputs["allocator"] = slot("allocator", lambda: forms["allocator"].allocate(
-            t, outputs["law"], outputs["estimator"], actuators))
-        failed = {}
-        for row, exc in group.apply(outputs["allocator"]).items():
-            try:  # the plant refusing its command is the allocator's failure, as in a single run's tick
-                cohort.pipelines[row]._raise_failure(t, "allocator", exc)
-            except StageFailed as failure:
-                failed[row] = failure
+        failed = tick_slots(t, cohort.forms, group, cohort.declared, cohort.outputs, take,
+                            lambda: cohort.pipelines, frozenset(given))
         self._stop(cohort, failed, t)
         if not len(cohort.rows):
             return
