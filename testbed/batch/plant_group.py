@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from testbed.batch.stage_forms import WorldsFailed, rows_of, stacked
+from testbed.batch.stage_forms import WorldsFailed, nan_like, rows_of, stacked
 from testbed.plant import SimulationDiverged
 
 
@@ -47,11 +47,11 @@ class PerWorldPlants:
 
     def truth(self) -> dict:
         """Each world's `Plant.truth()`, stacked (N, ...)."""
-        return self._each(lambda plant: plant.truth(), _nan_like, stacked)
+        return self._each(lambda plant: plant.truth(), nan_like, stacked)
 
     def actuator_state(self) -> dict:
         """Each world's `Plant.actuator_state()`, stacked (N, ...)."""
-        return self._each(lambda plant: plant.actuator_state(), _nan_like, stacked)
+        return self._each(lambda plant: plant.actuator_state(), nan_like, stacked)
 
     def internal_momentum_body(self) -> np.ndarray:
         """Each world's momentum of its moving parts, body frame, (N, 3) [N m s]."""
@@ -89,10 +89,6 @@ class PerWorldPlants:
             except SimulationDiverged as exc:
                 failures[row] = exc
         return failures
-
-
-def _nan_like(alive: dict | None) -> dict:
-    return {key: np.full(np.shape(value), np.nan) for key, value in (alive or {}).items()}
 
 
 def group_of(plants: list, steps: int):

@@ -57,6 +57,11 @@ def rows_of(signals: dict, count: int) -> list[dict]:
     return [{key: value[i] for key, value in signals.items()} for i in range(count)]
 
 
+def nan_like(alive: dict | None) -> dict:
+    """A failed world's row: NaN in the shape of each of a live world's outputs `alive` ({} if none)."""
+    return {key: np.full(np.shape(value), np.nan) for key, value in (alive or {}).items()}
+
+
 def stacked(outputs: list[dict]) -> dict:
     """The per-world dicts `outputs` as one dict of (N, ...) arrays (each world's keys the same)."""
     if not outputs or not outputs[0]:
@@ -86,8 +91,7 @@ class PerWorld:
                 failures[row] = exc
                 outputs.append(None)
         if failures:
-            alive = next((out for out in outputs if out is not None), {})
-            filler = {key: np.full(np.shape(value), np.nan) for key, value in alive.items()}
+            filler = nan_like(next((out for out in outputs if out is not None), None))
             raise WorldsFailed(failures, stacked([filler if out is None else out for out in outputs]))
         return stacked(outputs)
 
